@@ -1,0 +1,1 @@
+// Calibration file reading and checking: being written.
