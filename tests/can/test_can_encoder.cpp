@@ -1,0 +1,536 @@
+// The CAN encoder, the DBC file and the candump log, checked against independent tools: every frame is
+// written to a candump log, decoded with config/rutd.dbc by canmatrix (tests/can/decode_candump.py, which
+// also checks CRC and counters with its own code), and converted by can-utils' log2asc. Expected values
+// come from the inputs and the signal ranges of the specification, not from the encoder.
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+#include <map>
+#include <random>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "drivers/can_encoder.hpp"
+#include "drivers/candump_log.hpp"
+
+namespace rutd {
+namespace {
+
+namespace fs = std::filesystem;
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+constexpr double kInf = std::numeric_limits<double>::infinity();
+constexpr const char* kPython = "/usr/bin/python3";
+
+// ---------------------------------------------------------------------------------------------------
+// Helpers: temporary folder, shell commands, the decoder's CSV.
+
+fs::path make_temp_dir() {
+  const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
+  const fs::path dir = fs::temp_directory_path() /
+                       ("rutd_can_" + std::string(info->name()) + "_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  return dir;
+}
+
+std::string quoted(const fs::path& p) { return "'" + p.string() + "'"; }
+
+int run_shell(const std::string& command) {
+  const int status = std::system(command.c_str());
+  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
+std::string read_text(const fs::path& p) {
+  std::ifstream in(p);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+std::string decoder_unavailable() {
+  if (!fs::exists(kPython)) return std::string(kPython) + " is needed (with python3-canmatrix)";
+  if (run_shell(std::string(kPython) + " -c 'import canmatrix.formats' >/dev/null 2>&1") != 0) {
+    return std::string("canmatrix for ") + kPython + " is needed (Debian package python3-canmatrix)";
+  }
+  return {};
+}
+
+struct DecodedSignal {
+  int index = 0;
+  std::int64_t t_ns = 0;
+  std::string message;
+  std::string signal;
+  long long raw = 0;
+  double phys = 0.0;
+  std::string named;
+  bool na = false;
+};
+
+struct DecoderRun {
+  int exit_code = -1;
+  std::vector<DecodedSignal> rows;
+  std::string diagnostics;  // the script's stderr
+};
+
+std::vector<std::string> split_csv(const std::string& line) {
+  std::vector<std::string> fields;
+  std::stringstream ss(line);
+  std::string field;
+  while (std::getline(ss, field, ',')) fields.push_back(field);
+  if (!line.empty() && line.back() == ',') fields.emplace_back();
+  return fields;
+}
+
+DecoderRun run_decoder(const fs::path& log, const fs::path& dir) {
+  const fs::path source(RUTD_SOURCE_DIR);
+  const fs::path csv = dir / "decoded.csv";
+  const fs::path err = dir / "decoder.err";
+  DecoderRun run;
+  run.exit_code = run_shell(std::string(kPython) + " " + quoted(source / "tests/can/decode_candump.py") + " " +
+                            quoted(source / "config/rutd.dbc") + " " + quoted(log) + " >" + quoted(csv) + " 2>" +
+                            quoted(err));
+  run.diagnostics = read_text(err);
+  std::ifstream in(csv);
+  std::string line;
+  std::getline(in, line);  // header
+  while (std::getline(in, line)) {
+    const auto f = split_csv(line);
+    if (f.size() != 8) {
+      ADD_FAILURE() << "bad decoder line: " << line;
+      continue;
+    }
+    run.rows.push_back({std::stoi(f[0]), std::stoll(f[1]), f[2], f[3], std::stoll(f[4]), std::strtod(f[5].c_str(), nullptr),
+                        f[6], f[7] == "1"});
+  }
+  return run;
+}
+
+// ---------------------------------------------------------------------------------------------------
+// Expected decoded values, from the specification's signal ranges and resolutions.
+
+struct Range {
+  double min;
+  double max;
+  double step;
+};
+constexpr Range kDepth{0, 400, 0.1};
+constexpr Range kWidth{0, 1000, 0.25};
+constexpr Range kQualityPercent{0, 100, 0.4};
+constexpr Range kArea{0, 655340, 10};
+constexpr Range kPile{0, 200, 0.1};
+constexpr Range kSlope{-30, 30, 0.02};
+constexpr Range kCenter{-1000, 1000, 0.5};
+constexpr Range kFrameRate{0, 655.34, 0.01};
+
+struct Expect {
+  bool na = false;
+  double value = 0.0;
+  double tolerance = 0.0;
+  std::string named;  // value-table text, checked when not empty
+  bool ranged = false;  // a scaled quantity, whose all-ones raw value would mean "not available"
+};
+
+Expect physical(double v, const Range& r) {
+  if (!std::isfinite(v)) return {true, 0, 0, {}};
+  return {false, std::clamp(v, r.min, r.max), r.step / 2 + 1e-9, {}, true};
+}
+Expect exact(double v, std::string named = {}) { return {false, v, 1e-9, std::move(named), false}; }
+Expect not_available() { return {true, 0, 0, {}}; }
+
+std::string status_text(RutStatus s) {
+  return static_cast<int>(s) <= 5 ? std::string(to_string(s)) : std::string("UNKNOWN");
+}
+double status_raw(RutStatus s) { return static_cast<int>(s) <= 5 ? static_cast<int>(s) : 15; }
+
+using Expectations = std::map<std::pair<int, std::string>, Expect>;  // (frame index, signal) -> value
+
+void expect_measurement(Expectations& e, int index, int counter, const RutMeasurement& m) {
+  const bool ok = m.status == RutStatus::Ok;
+  auto field = [&](double v, const Range& r) { return ok ? physical(v, r) : not_available(); };
+  e[{index, "RutM1_Counter"}] = exact(counter);
+  e[{index, "RutM1_Status"}] = exact(status_raw(m.status), status_text(m.status));
+  e[{index, "RutDepth"}] = field(m.depth_mm, kDepth);
+  e[{index, "RutWidth"}] = field(m.width_mm, kWidth);
+  e[{index, "RutQuality"}] = field(m.quality * 100.0, kQualityPercent);
+  e[{index, "RutArea"}] = field(m.area_mm2, kArea);
+  e[{index + 1, "RutM2_Counter"}] = exact(counter);
+  e[{index + 1, "RutM2_Status"}] = exact(status_raw(m.status), status_text(m.status));
+  e[{index + 1, "RutLeftPile"}] = field(m.left_pile_mm, kPile);
+  e[{index + 1, "RutRightPile"}] = field(m.right_pile_mm, kPile);
+  e[{index + 1, "GroundSlope"}] = field(m.ground_slope_deg, kSlope);
+  e[{index + 1, "RutCenterX"}] = field(m.center_x_mm, kCenter);
+}
+
+void expect_status(Expectations& e, int index, int counter, const SensorHealth& h) {
+  e[{index, "RutS_Counter"}] = exact(counter);
+  e[{index, "RutS_LastStatus"}] = exact(status_raw(h.last_status), status_text(h.last_status));
+  e[{index, "NoCamera"}] = exact(h.no_camera);
+  e[{index, "StaleFrames"}] = exact(h.stale_frames);
+  e[{index, "CalibrationInvalid"}] = exact(h.calibration_invalid);
+  e[{index, "LowTexture"}] = exact(h.low_texture);
+  e[{index, "FrameDrops"}] = exact(h.frame_drops);
+  e[{index, "CanTxDrops"}] = exact(h.can_tx_drops);
+  e[{index, "BusOff"}] = exact(h.bus_off);
+  e[{index, "RecordingError"}] = exact(h.recording_error);
+  e[{index, "FrameRate"}] = physical(h.frame_rate_hz, kFrameRate);
+  e[{index, "DroppedFrames"}] = exact(std::min<double>(h.dropped_frames, 16777214.0));
+}
+
+// ---------------------------------------------------------------------------------------------------
+// Inputs: edge cases, every status, and random values spilling past both ends of every range.
+
+RutMeasurement ok_measurement(double depth, double width, double left, double right, double area, double slope,
+                              double center, double quality) {
+  RutMeasurement m;
+  m.status = RutStatus::Ok;
+  m.depth_mm = depth;
+  m.width_mm = width;
+  m.left_pile_mm = left;
+  m.right_pile_mm = right;
+  m.area_mm2 = area;
+  m.ground_slope_deg = slope;
+  m.center_x_mm = center;
+  m.quality = quality;
+  return m;
+}
+
+double spill(std::mt19937& rng, const Range& r) {
+  const double margin = 0.1 * (r.max - r.min);
+  return std::uniform_real_distribution<double>(r.min - margin, r.max + margin)(rng);
+}
+
+RutMeasurement random_measurement(std::mt19937& rng, RutStatus status) {
+  RutMeasurement m = ok_measurement(spill(rng, kDepth), spill(rng, kWidth), spill(rng, kPile), spill(rng, kPile),
+                                    spill(rng, kArea), spill(rng, kSlope), spill(rng, kCenter),
+                                    spill(rng, kQualityPercent) / 100.0);
+  m.status = status;
+  return m;
+}
+
+std::vector<RutMeasurement> measurement_cases() {
+  std::vector<RutMeasurement> cases;
+  cases.push_back(ok_measurement(0, 0, 0, 0, 0, 0, 0, 0));
+  cases.push_back(ok_measurement(400, 1000, 200, 200, 655340, 30, 1000, 1));
+  cases.push_back(ok_measurement(0, 0, 0, 0, 0, -30, -1000, 0));
+  cases.push_back(ok_measurement(1e6, 5000, 300, 250, 1e7, 89, 5000, 1.5));         // saturate high
+  cases.push_back(ok_measurement(-5, -1, -3, -0.01, -100, -89, -5000, -0.2));      // saturate low
+  cases.push_back(ok_measurement(123.45, 333.375, 17.25, 0.05, 12345, -0.01, 0.25, 0.502));  // half steps
+  cases.push_back(ok_measurement(kInf, 500, 50, 50, 1000, -kInf, 0, 0.5));
+  for (int nan_field = 0; nan_field < 8; ++nan_field) {
+    double v[8] = {100, 300, 20, 30, 5000, 2.5, -150, 0.75};
+    v[nan_field] = kNaN;
+    cases.push_back(ok_measurement(v[0], v[1], v[2], v[3], v[4], v[5], v[6], v[7]));
+  }
+  std::mt19937 rng(20240601);
+  for (int s = 0; s <= 5; ++s) cases.push_back(random_measurement(rng, static_cast<RutStatus>(s)));
+  cases.push_back(random_measurement(rng, static_cast<RutStatus>(9)));  // not a RutStatus value
+  for (int i = 0; i < 200; ++i) cases.push_back(random_measurement(rng, RutStatus::Ok));
+  return cases;
+}
+
+SensorHealth health_case(std::mt19937& rng, int k) {
+  std::bernoulli_distribution coin(0.5);
+  SensorHealth h;
+  h.no_camera = coin(rng);
+  h.stale_frames = coin(rng);
+  h.calibration_invalid = coin(rng);
+  h.low_texture = coin(rng);
+  h.frame_drops = coin(rng);
+  h.can_tx_drops = coin(rng);
+  h.bus_off = coin(rng);
+  h.recording_error = coin(rng);
+  const double rates[] = {kNaN, -5.0, 0.0, 700.0, 655.34};
+  h.frame_rate_hz = k < 5 ? rates[k] : std::uniform_real_distribution<double>(0, 120)(rng);
+  const std::uint32_t drops[] = {0, 16777214, 16777215, 4000000000U};
+  h.dropped_frames = k < 4 ? drops[k] : std::uniform_int_distribution<std::uint32_t>(0, 100000)(rng);
+  h.last_status = static_cast<RutStatus>(k % 7 == 6 ? 12 : k % 7);
+  return h;
+}
+
+constexpr std::int64_t kT0 = 1'700'000'000'000'000'000 + 987'654'321;  // not on a microsecond
+
+// Encodes all cases in the order a daemon would send them (a status frame after every 10th measurement)
+// and writes them to `log_path`. Returns the expectations and the frames in log order.
+std::pair<Expectations, std::vector<CanFrame>> write_log(const fs::path& log_path, std::vector<std::int64_t>& times) {
+  CanEncoder encoder;
+  std::ofstream log(log_path);
+  CandumpLogWriter writer(log, "can0");
+  Expectations expected;
+  std::vector<CanFrame> frames;
+  std::mt19937 rng(7);
+  int status_count = 0;
+  const auto cases = measurement_cases();
+  for (std::size_t k = 0; k < cases.size(); ++k) {
+    std::array<CanFrame, 2> out{};
+    const int n = encoder.encode_measurement(cases[k], out);
+    EXPECT_EQ(n, 2);
+    expect_measurement(expected, static_cast<int>(frames.size()), static_cast<int>(k % 15), cases[k]);
+    const std::int64_t t = kT0 + static_cast<std::int64_t>(k) * 33'333'333;
+    for (int i = 0; i < n; ++i) {
+      EXPECT_TRUE(writer.write(out[static_cast<std::size_t>(i)], t + i * 150'000));
+      frames.push_back(out[static_cast<std::size_t>(i)]);
+      times.push_back(t + i * 150'000);
+    }
+    if (k % 10 == 9) {
+      const SensorHealth h = health_case(rng, status_count);
+      expect_status(expected, static_cast<int>(frames.size()), status_count % 15, h);
+      frames.push_back(encoder.encode_status(h));
+      times.push_back(t + 1'000'000);
+      EXPECT_TRUE(writer.write(frames.back(), times.back()));
+      ++status_count;
+    }
+  }
+  return {expected, frames};
+}
+
+// ---------------------------------------------------------------------------------------------------
+
+TEST(CanEncoder, DefaultIdentifiersAreJ1939ProprietaryB) {
+  CanEncoder encoder;
+  std::array<CanFrame, 2> out{};
+  ASSERT_EQ(encoder.encode_measurement(RutMeasurement{}, out), 2);
+  const CanFrame status = encoder.encode_status(SensorHealth{});
+  EXPECT_EQ(out[0].id, 0x18FF50A0U);
+  EXPECT_EQ(out[1].id, 0x18FF51A0U);
+  EXPECT_EQ(status.id, 0x18FF52A0U);
+  for (const CanFrame& f : {out[0], out[1], status}) {
+    EXPECT_TRUE(f.extended);
+    EXPECT_EQ(f.len, 8);
+  }
+}
+
+TEST(CanEncoder, SourceAddressAndPriorityGoIntoTheIdentifier) {
+  CanIdConfig ids;
+  ids.source_address = 0x2B;
+  ids.priority = 3;
+  CanEncoder encoder(ids);
+  // priority 3 -> bits 26..28 = 011; PGN 0xFF52; SA 0x2B.
+  EXPECT_EQ(encoder.encode_status(SensorHealth{}).id, 0x0CFF522BU);
+}
+
+TEST(CanEncoder, ElevenBitIdentifiersCarryTheSamePayload) {
+  CanIdConfig ids;
+  ids.extended = false;
+  CanEncoder standard(ids);
+  CanEncoder extended;
+  std::mt19937 rng(99);
+  for (int k = 0; k < 20; ++k) {
+    const RutMeasurement m = random_measurement(rng, k % 3 ? RutStatus::Ok : RutStatus::NoRut);
+    std::array<CanFrame, 2> a{};
+    std::array<CanFrame, 2> b{};
+    standard.encode_measurement(m, a);
+    extended.encode_measurement(m, b);
+    EXPECT_EQ(a[0].id, 0x350U);
+    EXPECT_EQ(a[1].id, 0x351U);
+    EXPECT_FALSE(a[0].extended);
+    EXPECT_EQ(a[0].data, b[0].data);
+    EXPECT_EQ(a[1].data, b[1].data);
+  }
+  SensorHealth h;
+  h.frame_rate_hz = 30;
+  const CanFrame s = standard.encode_status(h);
+  EXPECT_EQ(s.id, 0x352U);
+  EXPECT_EQ(s.data, extended.encode_status(h).data);
+}
+
+TEST(CanEncoder, RejectsUnusableIdentifiers) {
+  auto with = [](auto change) {
+    CanIdConfig ids;
+    change(ids);
+    return ids;
+  };
+  EXPECT_TRUE(check_can_id_config(CanIdConfig{}).empty());
+  EXPECT_THROW(CanEncoder(with([](CanIdConfig& c) { c.priority = 8; })), std::invalid_argument);
+  EXPECT_THROW(CanEncoder(with([](CanIdConfig& c) { c.source_address = 0xFE; })), std::invalid_argument);
+  EXPECT_THROW(CanEncoder(with([](CanIdConfig& c) { c.status_pgn = 0xEF00; })), std::invalid_argument);  // PDU1
+  EXPECT_THROW(CanEncoder(with([](CanIdConfig& c) { c.measurement1_pgn = 0x4FF50; })), std::invalid_argument);
+  EXPECT_THROW(CanEncoder(with([](CanIdConfig& c) { c.measurement2_id_11bit = 0x800; })), std::invalid_argument);
+  EXPECT_NE(check_can_id_config(with([](CanIdConfig& c) { c.priority = 9; })).find("priority"), std::string::npos);
+}
+
+TEST(CanEncoder, MeasurementFramesShareACounterThatRunsZeroToFourteen) {
+  CanEncoder encoder;
+  std::array<CanFrame, 2> out{};
+  for (int k = 0; k < 40; ++k) {
+    encoder.encode_measurement(RutMeasurement{}, out);
+    EXPECT_EQ(out[0].data[1] & 0x0F, k % 15);
+    EXPECT_EQ(out[1].data[1] & 0x0F, k % 15);
+  }
+}
+
+TEST(CandumpLog, FormatsLikeCandump) {
+  std::ostringstream os;
+  CandumpLogWriter writer(os, "can0");
+  CanFrame ext{0x18FF50A0, true, 8, {0x01, 0x02, 0x03, 0x04, 0x05, 0x06, 0x07, 0x08}};
+  CanFrame std11{0x350, false, 2, {0xA1, 0xB2}};
+  CanFrame empty{0x123, false, 0, {}};
+  CanFrame low{0x00000001, true, 1, {0xFF}};
+  EXPECT_TRUE(writer.write(ext, 1'700'000'000'123'456'789));
+  EXPECT_TRUE(writer.write(std11, 1'700'000'000'223'456'000));
+  EXPECT_TRUE(writer.write(empty, 12'000'001'999));
+  EXPECT_TRUE(writer.write(low, -5));
+  EXPECT_EQ(os.str(),
+            "(1700000000.123456) can0 18FF50A0#0102030405060708\n"
+            "(1700000000.223456) can0 350#A1B2\n"
+            "(0000000012.000001) can0 123#\n"
+            "(0000000000.000000) can0 00000001#FF\n");
+}
+
+TEST(CandumpLog, ParsesWhatItWritesAndCandumpVariants) {
+  std::mt19937 rng(5);
+  for (int k = 0; k < 200; ++k) {
+    CanFrame f;
+    f.extended = k % 2 == 0;
+    f.id = std::uniform_int_distribution<std::uint32_t>(0, f.extended ? 0x1FFFFFFF : 0x7FF)(rng);
+    f.len = static_cast<std::uint8_t>(k % 9);
+    for (int i = 0; i < f.len; ++i) f.data[static_cast<std::size_t>(i)] = static_cast<std::uint8_t>(rng());
+    const std::int64_t t = std::uniform_int_distribution<std::int64_t>(0, 4'000'000'000'000'000'000)(rng);
+    std::ostringstream os;
+    CandumpLogWriter(os, "vcan12").write(f, t);
+    const auto parsed = parse_candump_line(os.str());
+    ASSERT_TRUE(parsed) << os.str();
+    EXPECT_EQ(parsed->first, f) << os.str();
+    EXPECT_EQ(parsed->second, t - t % 1000) << os.str();
+  }
+  const auto dotted = parse_candump_line("(1.000002) can1 12345678#de.ad.BE.ef  \r\n");
+  ASSERT_TRUE(dotted);
+  EXPECT_EQ(dotted->first, (CanFrame{0x12345678, true, 4, {0xDE, 0xAD, 0xBE, 0xEF}}));
+  EXPECT_EQ(dotted->second, 1'000'002'000);
+}
+
+TEST(CandumpLog, RejectsWhatIsNotAClassicDataFrame) {
+  for (const char* bad : {"", "(1.000000) can0", "1.000000 can0 123#00", "(1.00000) can0 123#00",
+                          "(1.000000) can0 123#R", "(1.000000) can0 123##0112233", "(1.000000) can0 1234#00",
+                          "(1.000000) can0 800#00", "(1.000000) can0 20000000#00", "(1.000000) can0 123#0",
+                          "(1.000000) can0 123#001122334455667788", "(1.000000) can0 12G#00",
+                          "(1.000000) can0 123#00 trailing", "(-1.000000) can0 123#00"}) {
+    EXPECT_FALSE(parse_candump_line(bad)) << bad;
+  }
+}
+
+TEST(CanDbc, CanmatrixDecodesEveryFrameToTheInputValues) {
+  if (const std::string missing = decoder_unavailable(); !missing.empty()) GTEST_SKIP() << missing;
+  const fs::path dir = make_temp_dir();
+  const fs::path log = dir / "rutd.log";
+  std::vector<std::int64_t> times;
+  auto [expected, frames] = write_log(log, times);
+
+  const DecoderRun run = run_decoder(log, dir);
+  EXPECT_EQ(run.exit_code, 0) << run.diagnostics;
+  EXPECT_NE(run.diagnostics.find("frames=" + std::to_string(frames.size()) + " crc_errors=0 counter_errors=0 "
+                                 "unknown_frames=0 bad_lines=0"),
+            std::string::npos)
+      << run.diagnostics;
+
+  std::size_t checked = 0;
+  for (const DecodedSignal& row : run.rows) {
+    ASSERT_LT(static_cast<std::size_t>(row.index), frames.size());
+    EXPECT_EQ(row.t_ns, times[static_cast<std::size_t>(row.index)] / 1000 * 1000);
+    if (row.signal.ends_with("_CRC")) {
+      EXPECT_EQ(row.raw, frames[static_cast<std::size_t>(row.index)].data[0]);
+      continue;
+    }
+    const auto it = expected.find({row.index, row.signal});
+    if (it == expected.end()) {
+      ADD_FAILURE() << "frame " << row.index << " " << row.message << ": unexpected signal " << row.signal;
+      continue;
+    }
+    const Expect& e = it->second;
+    const std::string where = "frame " + std::to_string(row.index) + " " + row.signal;
+    if (e.na) {
+      EXPECT_TRUE(row.na) << where << " should be not available, raw " << row.raw;
+    } else {
+      if (e.ranged) {
+        EXPECT_FALSE(row.na) << where << " raw " << row.raw;
+      }
+      EXPECT_NEAR(row.phys, e.value, e.tolerance) << where;
+      if (!e.named.empty()) {
+        EXPECT_EQ(row.named, e.named) << where;
+      }
+    }
+    expected.erase(it);
+    ++checked;
+  }
+  EXPECT_TRUE(expected.empty()) << expected.size() << " expected signals were not decoded, first: frame "
+                                << expected.begin()->first.first << " " << expected.begin()->first.second;
+  std::printf("decoded %zu frames, checked %zu signal values against the inputs\n", frames.size(), checked);
+  fs::remove_all(dir);
+}
+
+TEST(CanDbc, DecoderReportsCorruptionLossAndReordering) {
+  if (const std::string missing = decoder_unavailable(); !missing.empty()) GTEST_SKIP() << missing;
+  const fs::path dir = make_temp_dir();
+  const fs::path log = dir / "bad.log";
+  CanEncoder encoder;
+  std::vector<std::array<CanFrame, 2>> measurements(6);
+  for (auto& out : measurements) encoder.encode_measurement(ok_measurement(50, 200, 10, 12, 4000, 1, 0, 0.9), out);
+  measurements[1][1].data[4] ^= 0x10;  // one bit flipped in a payload byte
+  {
+    std::ofstream os(log);
+    CandumpLogWriter writer(os);
+    std::int64_t t = kT0;
+    auto put = [&](const CanFrame& f) { writer.write(f, t += 1'000'000); };
+    put(measurements[0][0]), put(measurements[0][1]);  // log index 0, 1
+    put(measurements[1][0]), put(measurements[1][1]);  // 2, 3: CRC error at 3
+    /* measurement 2 lost entirely */
+    put(measurements[3][0]), put(measurements[3][1]);  // 4: counter jumps from 1 to 3
+    put(measurements[4][0]);                           // 6: partner missing ...
+    put(measurements[5][0]), put(measurements[5][1]);  // 7: ... noticed here
+  }
+  const DecoderRun run = run_decoder(log, dir);
+  EXPECT_NE(run.exit_code, 0);
+  EXPECT_NE(run.diagnostics.find("CRC_ERROR index=3 "), std::string::npos) << run.diagnostics;
+  EXPECT_NE(run.diagnostics.find("COUNTER_ERROR index=4 "), std::string::npos) << run.diagnostics;
+  EXPECT_NE(run.diagnostics.find("COUNTER_ERROR index=7 "), std::string::npos) << run.diagnostics;
+  EXPECT_NE(run.diagnostics.find("crc_errors=1 counter_errors=2 "), std::string::npos) << run.diagnostics;
+  fs::remove_all(dir);
+}
+
+TEST(CandumpLog, Log2ascConvertsEveryFrame) {
+  if (!fs::exists("/usr/bin/log2asc") && run_shell("command -v log2asc >/dev/null 2>&1") != 0) {
+    GTEST_SKIP() << "log2asc (Debian package can-utils) is needed";
+  }
+  const fs::path dir = make_temp_dir();
+  const fs::path log = dir / "rutd.log";
+  const fs::path asc = dir / "rutd.asc";
+  std::vector<std::int64_t> times;
+  const auto frames = write_log(log, times).second;
+  ASSERT_EQ(run_shell("log2asc -I " + quoted(log) + " -O " + quoted(asc) + " can0"), 0);
+
+  // ASC frame lines: "<seconds since first> 1  <ID>[x]  Rx   d <len> <bytes...>".
+  std::ifstream in(asc);
+  std::string line;
+  std::size_t n = 0;
+  while (std::getline(in, line)) {
+    std::istringstream ss(line);
+    double t = 0;
+    std::string channel, id, dir_text, kind;
+    int len = -1;
+    if (!(ss >> t >> channel >> id >> dir_text >> kind >> len) || kind != "d") continue;
+    ASSERT_LT(n, frames.size()) << line;
+    const CanFrame& f = frames[n];
+    char want_id[16];
+    std::snprintf(want_id, sizeof want_id, f.extended ? "%08Xx" : "%03X", f.id);
+    EXPECT_EQ(id, want_id) << line;
+    EXPECT_EQ(len, f.len) << line;
+    for (int i = 0; i < len; ++i) {
+      std::string byte;
+      ss >> byte;
+      EXPECT_EQ(std::stoi(byte, nullptr, 16), f.data[static_cast<std::size_t>(i)]) << line;
+    }
+    EXPECT_NEAR(t, static_cast<double>(times[n] / 1000 - times[0] / 1000) * 1e-6, 1.5e-6) << line;
+    ++n;
+  }
+  EXPECT_EQ(n, frames.size());
+  fs::remove_all(dir);
+}
+
+}  // namespace
+}  // namespace rutd

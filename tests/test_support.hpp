@@ -1,0 +1,41 @@
+#pragma once
+// Small helpers shared by the tests: a temporary folder removed afterwards, and running the rutd
+// program as a user would.
+#include <sys/wait.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <stdexcept>
+#include <string>
+
+namespace rutd::test {
+
+class TempDir {
+ public:
+  TempDir() {
+    std::string tmpl = (std::filesystem::temp_directory_path() / "rutd-test-XXXXXX").string();
+    if (mkdtemp(tmpl.data()) == nullptr) throw std::runtime_error("mkdtemp failed");
+    path_ = tmpl;
+  }
+  ~TempDir() {
+    std::error_code ec;
+    std::filesystem::remove_all(path_, ec);
+  }
+  TempDir(const TempDir&) = delete;
+  TempDir& operator=(const TempDir&) = delete;
+  const std::filesystem::path& path() const { return path_; }
+
+ private:
+  std::filesystem::path path_;
+};
+
+// Runs `rutd ARGS` through the shell (ARGS must be shell-safe) and returns its exit status, or -1 if it
+// did not exit normally. stderr_file, when given, receives the program's standard error.
+inline int run_rutd(const std::string& args, const std::string& stderr_file = {}) {
+  std::string cmd = std::string("'") + RUTD_BINARY + "' " + args;
+  if (!stderr_file.empty()) cmd += " 2>'" + stderr_file + "'";
+  const int status = std::system(cmd.c_str());
+  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
+}  // namespace rutd::test
