@@ -1,0 +1,347 @@
+// extract_rut: the seed method of DESIGN.md §5 in mm units, made robust to noise, gaps, roll and a
+// missing pile. Steps:
+//  1. Sliding parabola fit over fit_window_mm: smoothed Z and dZ/dX per bin; per-bin noise from the
+//     fit residuals.
+//  2. Reference profile: a line with the median local slope through the 40th percentile of the
+//     detrended profile, so neither the rut nor the piles pull it (the mean profile of the paper would
+//     be dragged into a large rut and tilted by an off-centre one).
+//  3. Rut and piles relative to the current line: the deepest smoothed point is the rut bottom; walking
+//     outwards from it to the ground-line crossings (the rut opening) and on over the pile (the Z
+//     minimum, i.e. the turning point closest to the camera) down to its outer foot gives the disturbed
+//     zone. A side without a pile simply ends at the crossing.
+//  4. Ground line: robust (Tukey) line fit to low-gradient bins outside the disturbed zone. Steps 3-4
+//     run twice, the second time from the fitted line.
+//  5. Figures per rut/rut_measurement.hpp, from fits rather than extreme samples where noise would bias
+//     them: depth and pile heights from parabola / flat fits around the extreme (detail::refine_max),
+//     crossings from the smoothed profile, area by trapezoids over the raw bins.
+#include "rut/extract.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "rut/local_fit.hpp"
+
+namespace rutd {
+namespace {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+constexpr double kPi = 3.14159265358979323846;
+// Smallest tolerance (mm) used to delimit an extreme or a pile when the data are noise-free.
+constexpr double kMinDelta = 0.2;
+// Look-ahead threshold floor (mm) of the pile walk.
+constexpr double kMinStep = 0.5;
+
+struct Grid {
+  double x0;
+  double dx;
+  int n;
+  double x(int i) const { return x0 + dx * i; }
+};
+
+// Everything derived from the section once, before any line is fitted.
+struct Profile {
+  Grid grid;
+  int half = 0;            // half window of the sliding fit, bins
+  double sigma = 0.0;      // per-bin noise, mm
+  double sigma_fit = 0.0;  // noise of a smoothed value, mm
+  double slope_noise = 0.0;
+};
+
+struct Opening {
+  double left_x = 0.0, right_x = 0.0;  // crossings of the ground line
+  int left_bin = 0, right_bin = 0;     // first bin at or beyond each crossing (or the data edge)
+  bool left_edge = false, right_edge = false;
+};
+
+// h = signed distance above the line (towards the camera), mm.
+void heights(const std::vector<double>& z, const Grid& g, const detail::Line& line,
+             std::vector<double>& h) {
+  const double inv_norm = 1.0 / std::sqrt(1.0 + line.m * line.m);
+  h.resize(z.size());
+  for (int i = 0; i < g.n; ++i) h[i] = (line.m * g.x(i) + line.c - z[i]) * inv_norm;
+}
+
+int argmin_valid(const std::vector<double>& h, int lo, int hi) {
+  int best = -1;
+  for (int i = lo; i <= hi; ++i) {
+    if (!std::isnan(h[i]) && (best < 0 || h[i] < h[best])) best = i;
+  }
+  return best;
+}
+
+int argmax_valid(const std::vector<double>& h, int lo, int hi) {
+  int best = -1;
+  for (int i = lo; i <= hi; ++i) {
+    if (!std::isnan(h[i]) && (best < 0 || h[i] > h[best])) best = i;
+  }
+  return best;
+}
+
+// Walks from the bottom bin k in direction dir (-1/+1) to where h rises to the line (h >= 0),
+// interpolating the crossing linearly between the bins around it; NaN bins are stepped over.
+void find_crossing(const std::vector<double>& h, const Grid& g, int k, int dir, double& x, int& bin,
+                   bool& at_edge) {
+  int last = k;
+  for (int j = k + dir; j >= 0 && j < g.n; j += dir) {
+    if (std::isnan(h[j])) continue;
+    if (h[j] >= 0.0) {
+      const double t = h[last] / (h[last] - h[j]);  // h[last] < 0 <= h[j]
+      x = g.x(last) + t * (g.x(j) - g.x(last));
+      bin = j;
+      at_edge = false;
+      return;
+    }
+    last = j;
+  }
+  x = g.x(last);
+  bin = last;
+  at_edge = true;
+}
+
+Opening find_opening(const std::vector<double>& h, const Grid& g, int k) {
+  Opening o;
+  find_crossing(h, g, k, -1, o.left_x, o.left_bin, o.left_edge);
+  find_crossing(h, g, k, +1, o.right_x, o.right_bin, o.right_edge);
+  return o;
+}
+
+// True if a valid bin within `look` bins beyond j (direction dir) is above (sign +1) or below
+// (sign -1) h[j] by more than tau.
+bool ahead_exceeds(const std::vector<double>& h, int j, int dir, int look, double tau, int sign) {
+  for (int l = j + dir, steps = 0; steps < look && l >= 0 && l < int(h.size()); l += dir, ++steps) {
+    if (!std::isnan(h[l]) && sign * (h[l] - h[j]) > tau) return true;
+  }
+  return false;
+}
+
+int next_valid(const std::vector<double>& h, int j, int dir) {
+  for (int l = j + dir; l >= 0 && l < int(h.size()); l += dir) {
+    if (!std::isnan(h[l])) return l;
+  }
+  return -1;
+}
+
+// From the opening's bin, climbs the pile while the profile ahead still rises by more than tau,
+// then descends while it still falls by more than tau: the pile's outer foot. Without a pile both
+// walks stop at once. Returns the foot bin, or -1 if the walk ran off the data.
+int pile_foot(const std::vector<double>& h, int start, int dir, int look, double tau) {
+  int j = std::isnan(h[start]) ? next_valid(h, start, dir) : start;
+  for (int sign : {+1, -1}) {
+    while (j >= 0 && ahead_exceeds(h, j, dir, look, tau, sign)) j = next_valid(h, j, dir);
+  }
+  return j;
+}
+
+struct Zone {
+  int lo = 0, hi = 0;                  // disturbed bins (inclusive); ground lies outside
+  bool ground_left = false, ground_right = false;
+};
+
+Zone disturbed_zone(const std::vector<double>& h_fit, const Opening& o, const Profile& p) {
+  const double tau = std::max(kMinStep, 5.0 * p.sigma_fit);
+  const int look = 2 * p.half;
+  Zone z;
+  const int left_foot = o.left_edge ? -1 : pile_foot(h_fit, o.left_bin, -1, look, tau);
+  const int right_foot = o.right_edge ? -1 : pile_foot(h_fit, o.right_bin, +1, look, tau);
+  z.lo = left_foot < 0 ? 0 : std::max(0, left_foot - p.half);
+  z.hi = right_foot < 0 ? p.grid.n - 1 : std::min(p.grid.n - 1, right_foot + p.half);
+  z.ground_left = left_foot >= 0 && z.lo > 0;
+  z.ground_right = right_foot >= 0 && z.hi < p.grid.n - 1;
+  return z;
+}
+
+// Robust ground line through low-gradient bins outside the zone. Updates line; false if there is
+// too little ground (the caller reports NoGround).
+bool fit_ground(const CrossSection& s, const Profile& p, const Zone& zone, const RutParams& params,
+                RutWorkspace& ws, detail::Line& line, Zone& used) {
+  const double grad_max = std::max(params.ground_gradient_max, 4.0 * p.slope_noise);
+  ws.a.clear();
+  ws.b.clear();
+  int left = 0, right = 0;
+  for (int i = 0; i < p.grid.n; ++i) {
+    if (i >= zone.lo && i <= zone.hi) continue;
+    if (std::isnan(s.z_mm[i]) || std::isnan(ws.slope[i])) continue;
+    if (std::abs(ws.slope[i] - line.m) > grad_max) continue;
+    ws.a.push_back(p.grid.x(i));
+    ws.b.push_back(s.z_mm[i]);
+    (i < zone.lo ? left : right) += 1;
+  }
+  used = zone;
+  used.ground_left = left > 0;
+  used.ground_right = right > 0;
+  if (double(left + right) * p.grid.dx < params.min_ground_mm) return false;
+  return detail::fit_line_robust(ws.a.data(), ws.b.data(), int(ws.a.size()), ws.c, line);
+}
+
+// Step 2: median slope, 40th percentile level (see the file comment).
+detail::Line reference_line(const Profile& p, RutWorkspace& ws) {
+  detail::Line line;
+  ws.a.clear();
+  for (double d : ws.slope) {
+    if (!std::isnan(d)) ws.a.push_back(d);
+  }
+  line.m = detail::median_inplace(ws.a.data(), ws.a.data() + ws.a.size());
+  ws.a.clear();
+  for (int i = 0; i < p.grid.n; ++i) {
+    if (!std::isnan(ws.smooth[i])) ws.a.push_back(ws.smooth[i] - line.m * p.grid.x(i));
+  }
+  auto nth = ws.a.begin() + static_cast<long>(0.4 * double(ws.a.size()));
+  std::nth_element(ws.a.begin(), nth, ws.a.end());
+  line.c = *nth;
+  return line;
+}
+
+// Nearest valid slope from bin i walking in direction dir, at most `reach` bins; NaN if none.
+double nearest_slope(const std::vector<double>& slope, int i, int dir, int reach) {
+  for (int j = i, steps = 0; steps <= reach && j >= 0 && j < int(slope.size()); j += dir, ++steps) {
+    if (!std::isnan(slope[j])) return slope[j];
+  }
+  return std::numeric_limits<double>::quiet_NaN();
+}
+
+// Area below the line between the crossings: integral of (Z - m X - c) dX = norm * integral of -h
+// over the raw bins by trapezoids, h = 0 at both crossings. A gap is bridged by the cubic Hermite
+// through the values and fitted slopes at its ends (trapezoid plus an end-slope correction), so a
+// hole on a curved wall follows the curve rather than its chord; linearly if no slope is known.
+double area_below(const std::vector<double>& h_raw, const std::vector<double>& slope, double m,
+                  const Grid& g, const Opening& o, double norm, int reach) {
+  double area = 0.0;
+  double px = o.left_x, pv = o.left_edge ? kNaN : 0.0;
+  int pi = -1;
+  for (int i = 0; i < g.n; ++i) {
+    const double x = g.x(i);
+    if (x <= o.left_x || x >= o.right_x || std::isnan(h_raw[i])) continue;
+    const double v = -h_raw[i];
+    if (!std::isnan(pv)) {
+      const double len = x - px;
+      area += 0.5 * len * (pv + v);
+      if (pi >= 0 && i - pi > 1) {
+        // d(-h)/dX = (dZ/dX - m) / norm at both ends of the gap.
+        const double d0 = (nearest_slope(slope, pi, -1, reach) - m) / norm;
+        const double d1 = (nearest_slope(slope, i, +1, reach) - m) / norm;
+        if (!std::isnan(d0) && !std::isnan(d1)) area += len * len * (d0 - d1) / 12.0;
+      }
+    }
+    px = x;
+    pv = v;
+    pi = i;
+  }
+  if (!o.right_edge && !std::isnan(pv)) area += 0.5 * (o.right_x - px) * pv;
+  return area * norm;
+}
+
+// Largest height on one side of the opening (bins [lo, hi]), 0 when below the detection floor.
+double pile_height(const RutWorkspace& ws, const Profile& p, const RutParams& params, int lo,
+                   int hi) {
+  if (lo > hi) return 0.0;
+  const int k = argmax_valid(ws.h_fit, lo, hi);
+  if (k < 0) return 0.0;
+  const double floor = std::max(params.min_pile_mm, 5.0 * p.sigma_fit);
+  if (ws.h_fit[k] < floor) return 0.0;
+  const double delta = std::max({kMinDelta, 5.0 * p.sigma_fit, 0.1 * ws.h_fit[k]});
+  const double height = detail::refine_max(ws.h_raw, ws.h_fit, k, delta, 2, lo, hi, 0.0);
+  return height >= floor ? height : 0.0;
+}
+
+double quality_of(const CrossSection& s, const Opening& o, const Zone& ground, double sigma) {
+  int valid = 0, total = 0;
+  for (int i = o.left_bin; i <= o.right_bin; ++i, ++total) valid += std::isnan(s.z_mm[i]) ? 0 : 1;
+  const double coverage = total > 0 ? double(valid) / total : 0.0;
+  const double sides = ground.ground_left && ground.ground_right ? 1.0 : 0.7;
+  const double noise = 1.0 / (1.0 + sigma * sigma);  // sigma in mm: 0.5 mm -> 0.8, 2 mm -> 0.2
+  return std::clamp(coverage * sides * noise, 0.0, 1.0);
+}
+
+}  // namespace
+
+RutMeasurement extract_rut(const CrossSection& section, const RutParams& params, RutWorkspace& ws) {
+  RutMeasurement out;
+  const int n = static_cast<int>(section.z_mm.size());
+  Profile p;
+  p.grid = {section.x0_mm, section.dx_mm, n};
+  p.half = std::max(2, int(std::lround(0.5 * params.fit_window_mm / section.dx_mm)));
+
+  int valid = 0;
+  for (double z : section.z_mm) valid += std::isnan(z) ? 0 : 1;
+  out.valid_fraction = n > 0 ? double(valid) / n : 0.0;
+  if (n == 0 || valid < 4 * p.half || out.valid_fraction < params.min_valid_fraction) {
+    out.status = RutStatus::TooFewPoints;
+    return out;
+  }
+
+  // Step 1.
+  detail::sliding_quadratic(section.z_mm, section.dx_mm, p.half, p.half + 1, ws.smooth, ws.slope);
+  const double leverage = detail::centre_leverage(p.half);
+  p.sigma = detail::noise_sigma(section.z_mm, ws.smooth, leverage, ws.a);
+  p.sigma_fit = p.sigma * std::sqrt(leverage);
+  double t2 = 0.0;  // sum of squared offsets of a full window, mm^2
+  for (int j = -p.half; j <= p.half; ++j) t2 += double(j) * j * section.dx_mm * section.dx_mm;
+  p.slope_noise = p.sigma / std::sqrt(t2);
+
+  // Shallower than this is noise or undisturbed ground, not a rut.
+  const double min_depth = std::max(params.min_rut_depth_mm, 6.0 * p.sigma_fit);
+
+  // Steps 2-4.
+  detail::Line line = reference_line(p, ws);
+  Zone ground;
+  for (int pass = 0; pass < 2; ++pass) {
+    heights(ws.smooth, p.grid, line, ws.h_fit);
+    const int k = argmin_valid(ws.h_fit, 0, n - 1);
+    if (k < 0 || -ws.h_fit[k] < min_depth) {
+      // No rut: all of the low-gradient profile is ground (still reported: slope, NoGround).
+      if (!fit_ground(section, p, Zone{1, 0, false, false}, params, ws, line, ground)) {
+        out.status = RutStatus::NoGround;
+        return out;
+      }
+      break;
+    }
+    const Opening o = find_opening(ws.h_fit, p.grid, k);
+    if (!fit_ground(section, p, disturbed_zone(ws.h_fit, o, p), params, ws, line, ground)) {
+      out.status = RutStatus::NoGround;
+      return out;
+    }
+  }
+  out.ground_slope_deg = std::atan(line.m) * 180.0 / kPi;
+
+  // Step 5.
+  heights(ws.smooth, p.grid, line, ws.h_fit);
+  heights(section.z_mm, p.grid, line, ws.h_raw);
+  const int k = argmin_valid(ws.h_fit, 0, n - 1);
+  if (k < 0 || -ws.h_fit[k] < min_depth) {
+    out.status = RutStatus::NoRut;
+    return out;
+  }
+  const Opening o = find_opening(ws.h_fit, p.grid, k);
+  // Depth: the largest value of -h, refined by a fit over the deepest region.
+  ws.a.resize(n);
+  ws.b.resize(n);
+  for (int i = 0; i < n; ++i) {
+    ws.a[i] = -ws.h_raw[i];
+    ws.b[i] = -ws.h_fit[i];
+  }
+  const double delta = std::max(kMinDelta, 5.0 * p.sigma_fit);
+  // A flat bottom is the common case: only a curved one (curvature > 2 standard errors) is taken at
+  // its vertex. Stricter would bias round bottoms low (flat mean of a curved top), laxer would bias
+  // flat bottoms high (the vertex of noise); 2 balances both under 0.1 mm at 0.5 mm noise.
+  out.depth_mm = detail::refine_max(ws.a, ws.b, k, delta, 2, o.left_bin, o.right_bin, 2.0);
+  const double norm = std::sqrt(1.0 + line.m * line.m);
+  out.width_mm = (o.right_x - o.left_x) * norm;
+  out.center_x_mm = 0.5 * (o.left_x + o.right_x);
+  out.area_mm2 = area_below(ws.h_raw, ws.slope, line.m, p.grid, o, norm, p.half / 2);
+  out.left_pile_mm = o.left_edge ? 0.0 : pile_height(ws, p, params, 0, o.left_bin);
+  out.right_pile_mm = o.right_edge ? 0.0 : pile_height(ws, p, params, o.right_bin, n - 1);
+
+  if (o.left_edge || o.right_edge) {
+    out.status = RutStatus::RutAtEdge;
+  } else if (out.depth_mm < min_depth || out.width_mm < params.min_rut_width_mm ||
+             out.width_mm > params.max_rut_width_mm) {
+    out.status = RutStatus::NoRut;
+  } else {
+    out.status = RutStatus::Ok;
+    out.quality = quality_of(section, o, ground, p.sigma);
+  }
+  return out;
+}
+
+}  // namespace rutd

@@ -1,0 +1,315 @@
+// extract_rut against analytic rut profiles (tests/unit/test_rut_profile.hpp): depth, width, area,
+// piles, slope and centre against closed-form truth, under roll, noise, gaps, edges and odd shapes.
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <random>
+
+#include <gtest/gtest.h>
+
+#include "rut/extract.hpp"
+#include "test_rut_profile.hpp"
+
+namespace rutd {
+namespace {
+
+using test::kNaN;
+using test::make_section;
+using test::RutShape;
+using test::View;
+
+constexpr double kX0 = -320.0;  // 640 bins of 1 mm centred on the camera axis
+constexpr int kBins = 640;
+
+RutMeasurement measure(const CrossSection& c, const RutParams& params = {}) {
+  RutWorkspace ws;
+  return extract_rut(c, params, ws);
+}
+
+// Noise-free tolerances: the only errors left are the method's (fit windows, 1 mm bins).
+void expect_matches(const RutMeasurement& m, const RutShape& s, const View& v) {
+  ASSERT_EQ(m.status, RutStatus::Ok) << to_string(m.status);
+  EXPECT_NEAR(m.depth_mm, s.depth, 0.05);
+  EXPECT_NEAR(m.width_mm, s.width(), 1.0);
+  EXPECT_NEAR(m.area_mm2, s.area(), 0.002 * s.area());
+  EXPECT_NEAR(m.left_pile_mm, s.left_pile, 0.1);
+  EXPECT_NEAR(m.right_pile_mm, s.right_pile, 0.1);
+  EXPECT_NEAR(m.center_x_mm, v.center_x(s), 0.5);
+  EXPECT_NEAR(m.ground_slope_deg, v.slope_deg(), 0.01);
+  EXPECT_GT(m.quality, 0.9);
+  EXPECT_DOUBLE_EQ(m.valid_fraction, 1.0);
+}
+
+class KnownDepth : public ::testing::TestWithParam<double> {};
+
+TEST_P(KnownDepth, MatchesAnalyticProfile) {
+  RutShape s;
+  s.depth = GetParam();
+  const View v;
+  expect_matches(measure(make_section(s, v, kX0, kBins, 1.0)), s, v);
+}
+
+INSTANTIATE_TEST_SUITE_P(Depths, KnownDepth, ::testing::Values(30.0, 45.0, 60.0));
+
+class Rolled : public ::testing::TestWithParam<double> {};
+
+TEST_P(Rolled, GroundLineAbsorbsRoll) {
+  RutShape s;
+  s.depth = 50.0;
+  s.center_u = 25.0;
+  View v;
+  v.roll_deg = GetParam();
+  expect_matches(measure(make_section(s, v, kX0, kBins, 1.0)), s, v);
+}
+
+INSTANTIATE_TEST_SUITE_P(Roll, Rolled, ::testing::Values(3.0, -3.0, 8.0, -8.0));
+
+TEST(ExtractRut, RoundBottomedRut) {
+  RutShape s;  // no flat bottom: the deepest point is a curved minimum
+  s.bottom = 0.0;
+  s.depth = 35.0;
+  const View v;
+  expect_matches(measure(make_section(s, v, kX0, kBins, 1.0)), s, v);
+}
+
+// Mean and rms of an error over many trials.
+struct ErrorStats {
+  double sum = 0.0, sum_sq = 0.0;
+  int n = 0;
+  void add(double e) {
+    sum += e;
+    sum_sq += e * e;
+    ++n;
+  }
+  double mean() const { return sum / n; }
+  double rms() const { return std::sqrt(sum_sq / n); }
+};
+
+// Per-bin noise of 0.5 mm on a flat-bottomed 60 mm rut: the depth must come from fits, not from the
+// deepest (noise-biased) bin. The bias and spread are asserted over all seeds; per seed, depth must
+// meet the end-to-end target (0.5 mm) and the other figures about 5 sigma of their spread.
+TEST(ExtractRut, NoiseDoesNotBiasDepth) {
+  RutShape s;
+  s.depth = 60.0;
+  View v;
+  v.roll_deg = 3.0;
+  constexpr int kSeeds = 200;
+  ErrorStats depth, naive, width, area, pile, slope;
+  for (unsigned seed = 1; seed <= kSeeds; ++seed) {
+    const CrossSection c = make_section(s, v, kX0, kBins, 1.0, 0.5, seed);
+    const RutMeasurement m = measure(c);
+    ASSERT_EQ(m.status, RutStatus::Ok) << "seed " << seed;
+    depth.add(m.depth_mm - s.depth);
+    width.add(m.width_mm - s.width());
+    area.add(m.area_mm2 - s.area());
+    pile.add(m.left_pile_mm - s.left_pile);
+    pile.add(m.right_pile_mm - s.right_pile);
+    slope.add(m.ground_slope_deg - v.slope_deg());
+    EXPECT_NEAR(m.depth_mm, s.depth, 0.5) << "seed " << seed;
+    EXPECT_NEAR(m.width_mm, s.width(), 3.0) << "seed " << seed;
+    EXPECT_NEAR(m.area_mm2, s.area(), 0.01 * s.area()) << "seed " << seed;
+    EXPECT_NEAR(m.left_pile_mm, s.left_pile, 1.0) << "seed " << seed;
+    EXPECT_NEAR(m.right_pile_mm, s.right_pile, 1.0) << "seed " << seed;
+    EXPECT_NEAR(m.ground_slope_deg, v.slope_deg(), 0.05) << "seed " << seed;
+    EXPECT_NEAR(m.center_x_mm, v.center_x(s), 1.5) << "seed " << seed;
+    // The naive estimator for comparison: deepest single bin below the true ground line.
+    double deepest = 0.0;
+    const double r = v.roll();
+    for (int i = 0; i < kBins; ++i) {
+      const double x = kX0 + i;
+      deepest = std::max(deepest, (c.z_mm[i] - (v.ground_z - x * std::tan(r))) * std::cos(r));
+    }
+    naive.add(deepest - s.depth);
+  }
+  std::printf("noise 0.5 mm/bin, %d seeds, error mean / rms:\n"
+              "  depth %+.4f / %.4f mm (deepest bin %+.3f / %.3f mm)\n"
+              "  width %+.3f / %.3f mm, area %+.1f / %.1f mm2 (of %.0f), piles %+.3f / %.3f mm,"
+              " slope %+.4f / %.4f deg\n",
+              kSeeds, depth.mean(), depth.rms(), naive.mean(), naive.rms(), width.mean(),
+              width.rms(), area.mean(), area.rms(), s.area(), pile.mean(), pile.rms(),
+              slope.mean(), slope.rms());
+  EXPECT_LT(std::abs(depth.mean()), 0.05);
+  EXPECT_LT(depth.rms(), 0.15);
+  EXPECT_LT(std::abs(pile.mean()), 0.15);
+  EXPECT_LT(std::abs(area.mean()), 0.002 * s.area());
+}
+
+// A round bottom has no plateau to average: the vertex of a parabola fit must be used, or the depth
+// comes out low by a fraction of the fit region's height.
+TEST(ExtractRut, NoiseOnRoundBottom) {
+  RutShape s;
+  s.bottom = 0.0;
+  s.depth = 30.0;
+  constexpr int kSeeds = 100;
+  ErrorStats depth;
+  for (unsigned seed = 1; seed <= kSeeds; ++seed) {
+    const RutMeasurement m = measure(make_section(s, View{}, kX0, kBins, 1.0, 0.5, seed));
+    ASSERT_EQ(m.status, RutStatus::Ok) << "seed " << seed;
+    depth.add(m.depth_mm - s.depth);
+  }
+  std::printf("round bottom, noise 0.5 mm/bin: depth error mean %+.3f mm, rms %.3f mm\n",
+              depth.mean(), depth.rms());
+  EXPECT_LT(std::abs(depth.mean()), 0.2);
+  EXPECT_LT(depth.rms(), 0.35);
+}
+
+TEST(ExtractRut, GapsAreBridged) {
+  RutShape s;
+  s.depth = 45.0;
+  const View v;
+  CrossSection c = make_section(s, v, kX0, kBins, 1.0, 0.3, 7);
+  std::mt19937 rng(11);
+  std::uniform_int_distribution<int> column(0, kBins - 1);
+  for (int i = 0; i < kBins / 10; ++i) c.z_mm[column(rng)] = kNaN;  // ~10 % random dropouts
+  for (int x = -60; x < -40; ++x) c.z_mm[x - int(kX0)] = kNaN;      // 20 mm hole, bottom corner
+  for (int x = 55; x < 75; ++x) c.z_mm[x - int(kX0)] = kNaN;        // 20 mm hole on a wall
+  const RutMeasurement m = measure(c);
+  ASSERT_EQ(m.status, RutStatus::Ok) << to_string(m.status);
+  EXPECT_NEAR(m.depth_mm, s.depth, 0.15);
+  EXPECT_NEAR(m.width_mm, s.width(), 2.0);
+  EXPECT_NEAR(m.area_mm2, s.area(), 0.005 * s.area());
+  EXPECT_NEAR(m.left_pile_mm, s.left_pile, 0.5);
+  EXPECT_NEAR(m.right_pile_mm, s.right_pile, 0.5);
+  EXPECT_LT(m.valid_fraction, 0.93);
+  EXPECT_GT(m.valid_fraction, 0.8);
+}
+
+TEST(ExtractRut, FlatGroundIsNoRut) {
+  RutShape s;
+  s.depth = 0.0;
+  s.left_pile = s.right_pile = 0.0;
+  for (double roll : {0.0, 5.0}) {
+    View v;
+    v.roll_deg = roll;
+    for (double sigma : {0.0, 0.5, 2.0}) {
+      const RutMeasurement m = measure(make_section(s, v, kX0, kBins, 1.0, sigma, 3));
+      EXPECT_EQ(m.status, RutStatus::NoRut) << "roll " << roll << " sigma " << sigma;
+      EXPECT_NEAR(m.ground_slope_deg, v.slope_deg(), 0.05);
+      EXPECT_EQ(m.quality, 0.0);
+      EXPECT_DOUBLE_EQ(m.depth_mm, 0.0);
+    }
+  }
+}
+
+TEST(ExtractRut, RutAtEdge) {
+  RutShape s;
+  s.center_u = 260.0;  // opening reaches X = 360, beyond the section's last bin at 319
+  const RutMeasurement m = measure(make_section(s, View{}, kX0, kBins, 1.0));
+  EXPECT_EQ(m.status, RutStatus::RutAtEdge);
+  EXPECT_EQ(m.quality, 0.0);
+}
+
+TEST(ExtractRut, RutWithOnlyItsPileOutsideIsNotAtEdge) {
+  RutShape s;
+  s.center_u = 200.0;  // opening ends at X = 300, the right pile runs off the section
+  s.depth = 40.0;
+  const RutMeasurement m = measure(make_section(s, View{}, kX0, kBins, 1.0));
+  ASSERT_EQ(m.status, RutStatus::Ok) << to_string(m.status);
+  EXPECT_NEAR(m.depth_mm, s.depth, 0.05);
+  EXPECT_NEAR(m.width_mm, s.width(), 0.5);
+  EXPECT_NEAR(m.left_pile_mm, s.left_pile, 0.1);
+}
+
+TEST(ExtractRut, OnePileMissing) {
+  RutShape s;
+  s.depth = 40.0;
+  s.right_pile = 0.0;  // soft sand: all of the displaced material went to one side
+  s.left_pile = 25.0;
+  for (double roll : {0.0, -8.0}) {
+    View v;
+    v.roll_deg = roll;
+    expect_matches(measure(make_section(s, v, kX0, kBins, 1.0)), s, v);
+    const RutMeasurement noisy = measure(make_section(s, v, kX0, kBins, 1.0, 0.5, 5));
+    ASSERT_EQ(noisy.status, RutStatus::Ok);
+    EXPECT_NEAR(noisy.depth_mm, s.depth, 0.4);
+    EXPECT_EQ(noisy.right_pile_mm, 0.0);
+    EXPECT_NEAR(noisy.width_mm, s.width(), 3.0);
+  }
+}
+
+TEST(ExtractRut, NoPilesAtAll) {
+  RutShape s;
+  s.left_pile = s.right_pile = 0.0;
+  const View v;
+  expect_matches(measure(make_section(s, v, kX0, kBins, 1.0)), s, v);
+}
+
+TEST(ExtractRut, DifferentPileHeights) {
+  RutShape s;
+  s.left_pile = 8.0;
+  s.right_pile = 30.0;
+  s.pile_width = 80.0;
+  View v;
+  v.roll_deg = 3.0;
+  expect_matches(measure(make_section(s, v, kX0, kBins, 1.0)), s, v);
+}
+
+TEST(ExtractRut, WidthOutOfRangeIsNoRut) {
+  RutShape narrow;  // a 60 mm wide hole (a stone's imprint) is not a tyre rut
+  narrow.bottom = 20.0;
+  narrow.top = 60.0;
+  const RutMeasurement m1 = measure(make_section(narrow, View{}, kX0, kBins, 1.0));
+  EXPECT_EQ(m1.status, RutStatus::NoRut);
+  EXPECT_NEAR(m1.width_mm, 60.0, 2.0);  // the 25 mm fit window rounds a 20 mm wall
+
+  RutShape wide;
+  wide.bottom = 300.0;
+  wide.top = 450.0;
+  wide.pile_width = 50.0;
+  const RutMeasurement m2 = measure(make_section(wide, View{}, -600.0, 1200, 1.0));
+  EXPECT_EQ(m2.status, RutStatus::NoRut);
+  EXPECT_NEAR(m2.width_mm, 450.0, 1.0);
+
+  RutParams params;  // the same rut is fine once the range admits it
+  params.max_rut_width_mm = 500.0;
+  EXPECT_EQ(measure(make_section(wide, View{}, -600.0, 1200, 1.0), params).status, RutStatus::Ok);
+}
+
+TEST(ExtractRut, TooFewPoints) {
+  const RutShape s;
+  CrossSection c = make_section(s, View{}, kX0, kBins, 1.0);
+  for (int i = 0; i < kBins; ++i) {
+    if (i % 10 >= 3) c.z_mm[i] = kNaN;  // 30 % valid
+  }
+  const RutMeasurement m = measure(c);
+  EXPECT_EQ(m.status, RutStatus::TooFewPoints);
+  EXPECT_NEAR(m.valid_fraction, 0.3, 1e-9);
+  EXPECT_EQ(measure(CrossSection{}).status, RutStatus::TooFewPoints);
+}
+
+TEST(ExtractRut, NoGroundWhenTheRutFillsTheSection) {
+  RutShape s;  // only the rut and its piles are in view
+  const RutMeasurement m = measure(make_section(s, View{}, -155.0, 310, 1.0));
+  EXPECT_EQ(m.status, RutStatus::NoGround);
+}
+
+TEST(ExtractRut, SteadyStateDoesNotReallocate) {
+  const RutShape s;
+  const CrossSection c = make_section(s, View{}, kX0, kBins, 1.0, 0.5, 2);
+  RutWorkspace ws;
+  extract_rut(c, RutParams{}, ws);
+  const std::vector<std::vector<double>*> all = {&ws.smooth, &ws.slope, &ws.h_raw, &ws.h_fit,
+                                                 &ws.a, &ws.b, &ws.c};
+  std::vector<const double*> before;
+  for (auto* v : all) before.push_back(v->data());
+  const RutMeasurement again = extract_rut(c, RutParams{}, ws);
+  EXPECT_EQ(again.status, RutStatus::Ok);
+  for (std::size_t i = 0; i < all.size(); ++i) EXPECT_EQ(all[i]->data(), before[i]) << i;
+}
+
+TEST(ExtractRut, PrintsTimePer640BinSection) {
+  const CrossSection c = make_section(RutShape{}, View{}, kX0, kBins, 1.0, 0.5, 9);
+  RutWorkspace ws;
+  extract_rut(c, RutParams{}, ws);
+  constexpr int kRuns = 200;
+  double sink = 0.0;
+  const auto t0 = std::chrono::steady_clock::now();
+  for (int i = 0; i < kRuns; ++i) sink += extract_rut(c, RutParams{}, ws).depth_mm;
+  const auto t1 = std::chrono::steady_clock::now();
+  const double us = std::chrono::duration<double, std::micro>(t1 - t0).count() / kRuns;
+  std::printf("extract_rut, %d bins: %.1f us per call (depth %.3f)\n", kBins, us, sink / kRuns);
+  EXPECT_GT(sink, 0.0);
+}
+
+}  // namespace
+}  // namespace rutd
