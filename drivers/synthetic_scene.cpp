@@ -1,0 +1,351 @@
+// Terrain, texture and depth profile of the synthetic test bench (drivers/synthetic_scene.hpp).
+#include "drivers/synthetic_scene.hpp"
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <numbers>
+#include <random>
+#include <stdexcept>
+#include <string>
+
+#include <opencv2/imgproc.hpp>
+
+namespace rutd {
+namespace {
+
+constexpr double kPi = std::numbers::pi;
+
+void require(bool ok, const std::string& field, const std::string& what) {
+  if (!ok) throw std::invalid_argument("rut shape: " + field + ": " + what);
+}
+
+bool finite_all(const RutShape& s) {
+  for (double v : {s.depth_mm, s.width_mm, s.bottom_width_mm, s.pile_left_mm, s.pile_right_mm,
+                   s.pile_width_mm, s.lateral_offset_mm, s.wander_amplitude_mm, s.wander_wavelength_mm,
+                   s.tread_depth_mm, s.tread_pitch_mm, s.tread_taper_mm}) {
+    if (!std::isfinite(v)) return false;
+  }
+  return true;
+}
+
+// Raised cosine falling from 1 at u = 0 to 0 at u = 1, and its derivative.
+double fall(double u) { return 0.5 * (1.0 + std::cos(kPi * u)); }
+double fall_slope(double u) { return -0.5 * kPi * std::sin(kPi * u); }
+
+}  // namespace
+
+std::optional<Texture> parse_texture(std::string_view name) {
+  std::string lower(name);
+  std::transform(lower.begin(), lower.end(), lower.begin(),
+                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  if (lower == "sand") return Texture::Sand;
+  if (lower == "mud") return Texture::Mud;
+  if (lower == "snow") return Texture::Snow;
+  if (lower == "grass") return Texture::Grass;
+  return std::nullopt;
+}
+
+std::string_view to_string(Texture texture) noexcept {
+  switch (texture) {
+    case Texture::Sand: return "sand";
+    case Texture::Mud: return "mud";
+    case Texture::Snow: return "snow";
+    case Texture::Grass: return "grass";
+  }
+  return "unknown";
+}
+
+void validate(const RutShape& s, bool check_depth) {
+  require(finite_all(s), "values", "every value must be finite");
+  if (check_depth) require(s.depth_mm > 0, "depth_mm", "must be > 0");
+  require(s.width_mm > 0, "width_mm", "must be > 0");
+  require(s.bottom_width_mm >= 0 && s.bottom_width_mm < s.width_mm, "bottom_width_mm",
+          "must be >= 0 and < width_mm (a vertical wall cannot be ray cast)");
+  require(s.pile_left_mm >= 0, "pile_left_mm", "must be >= 0");
+  require(s.pile_right_mm >= 0, "pile_right_mm", "must be >= 0");
+  require(s.pile_width_mm > 0, "pile_width_mm", "must be > 0");
+  require(s.wander_amplitude_mm >= 0, "wander_amplitude_mm", "must be >= 0");
+  require(s.wander_wavelength_mm > 0, "wander_wavelength_mm", "must be > 0");
+  if (!s.tread) return;
+  require(s.tread_depth_mm > 0, "tread_depth_mm", "must be > 0");
+  require(s.tread_pitch_mm > 0, "tread_pitch_mm", "must be > 0");
+  require(s.tread_taper_mm > 0 && s.tread_taper_mm <= s.bottom_width_mm / 2, "tread_taper_mm",
+          "must be > 0 and <= bottom_width_mm / 2");
+}
+
+void validate(const DepthProfile& profile) {
+  for (std::size_t i = 0; i < profile.size(); ++i) {
+    const double depth = profile[i].second;
+    if (!std::isfinite(depth) || depth <= 0) {
+      throw std::invalid_argument("depth profile: knot " + std::to_string(i) + ": depth must be > 0");
+    }
+    if (i > 0 && profile[i].first <= profile[i - 1].first) {
+      throw std::invalid_argument("depth profile: knot " + std::to_string(i) +
+                                  ": frames must strictly increase");
+    }
+  }
+}
+
+double depth_at(const DepthProfile& profile, double constant_depth_mm, std::uint64_t index) noexcept {
+  if (profile.empty()) return constant_depth_mm;
+  if (index <= profile.front().first) return profile.front().second;
+  if (index >= profile.back().first) return profile.back().second;
+  const auto after = std::upper_bound(profile.begin(), profile.end(), index,
+                                      [](std::uint64_t i, const auto& knot) { return i < knot.first; });
+  const auto before = after - 1;
+  const double u = static_cast<double>(index - before->first) /
+                   static_cast<double>(after->first - before->first);
+  return before->second + u * (after->second - before->second);
+}
+
+// ---------------------------------------------------------------------------------------------------
+// RutTerrain
+
+RutTerrain::RutTerrain(const RutShape& shape, double depth_mm) noexcept : shape_(shape) {
+  shape_.depth_mm = depth_mm;
+  half_bottom_ = shape_.bottom_width_mm / 2;
+  half_width_ = shape_.width_mm / 2;
+  wall_width_ = half_width_ - half_bottom_;
+  wander_k_ = 2 * kPi / shape_.wander_wavelength_mm;
+  const double tread = shape_.tread ? shape_.tread_depth_mm : 0.0;
+  const double pile = std::max(shape_.pile_left_mm, shape_.pile_right_mm);
+  max_height_ = pile;
+  min_height_ = -(depth_mm + tread);
+  const double wall_slope = depth_mm * kPi / (2 * wall_width_);
+  const double pile_slope = pile * kPi / shape_.pile_width_mm;
+  const double tread_s = shape_.tread ? tread * kPi / (2 * shape_.tread_taper_mm) : 0.0;
+  const double tread_y = shape_.tread ? tread * kPi / shape_.tread_pitch_mm : 0.0;
+  const double wander = shape_.wander_amplitude_mm * wander_k_;  // max |xc'(y)|
+  // h = P(s) - tread(s, y) with s = x - xc(y); the s terms of P and of the tread never overlap in s,
+  // their sum is a bound. dh/dx = dh/ds; dh/dy = -xc' dh/ds - d tread/dy.
+  const double slope_s = std::max(wall_slope, pile_slope) + tread_s;
+  max_slope_x_ = slope_s;
+  max_slope_y_ = slope_s * wander + tread_y;
+  const double wall_curve = depth_mm * kPi * kPi / (2 * wall_width_ * wall_width_);
+  const double pile_curve = 2 * pile * kPi * kPi / (shape_.pile_width_mm * shape_.pile_width_mm);
+  const double tread_curve =
+      shape_.tread ? tread * (kPi * kPi / (2 * shape_.tread_taper_mm * shape_.tread_taper_mm) +
+                              kPi * kPi / (shape_.tread_taper_mm * shape_.tread_pitch_mm) +
+                              2 * kPi * kPi / (shape_.tread_pitch_mm * shape_.tread_pitch_mm))
+                   : 0.0;
+  // Every second derivative (s-s, s-y, y-y, through xc' and xc'') is bounded by these terms; the
+  // Frobenius norm of the bounded Hessian bounds its spectral norm.
+  const double chain = (1 + wander) * (1 + wander);
+  max_curvature_ = 2 * ((std::max(wall_curve, pile_curve) + tread_curve) * chain +
+                        slope_s * shape_.wander_amplitude_mm * wander_k_ * wander_k_);
+  const double reach = half_width_ + (pile > 0 ? shape_.pile_width_mm : 0.0) + shape_.wander_amplitude_mm;
+  disturbed_min_ = shape_.lateral_offset_mm - reach;
+  disturbed_max_ = shape_.lateral_offset_mm + reach;
+}
+
+double RutTerrain::centreline_x(double y) const noexcept {
+  if (shape_.wander_amplitude_mm == 0) return shape_.lateral_offset_mm;
+  return shape_.lateral_offset_mm + shape_.wander_amplitude_mm * std::sin(wander_k_ * y);
+}
+
+double RutTerrain::profile(double s) const noexcept {
+  const double a = std::abs(s);
+  if (a <= half_bottom_) return -shape_.depth_mm;
+  if (a <= half_width_) return -shape_.depth_mm * fall((a - half_bottom_) / wall_width_);
+  const double pile_height = s < 0 ? shape_.pile_left_mm : shape_.pile_right_mm;
+  if (a <= half_width_ + shape_.pile_width_mm) {
+    const double v = std::sin(kPi * (a - half_width_) / shape_.pile_width_mm);
+    return pile_height * v * v;
+  }
+  return 0.0;
+}
+
+double RutTerrain::profile_slope(double s) const noexcept {
+  const double a = std::abs(s);
+  const double sign = s < 0 ? -1.0 : 1.0;
+  if (a <= half_bottom_) return 0.0;
+  if (a <= half_width_) {
+    return -sign * shape_.depth_mm * fall_slope((a - half_bottom_) / wall_width_) / wall_width_;
+  }
+  if (a <= half_width_ + shape_.pile_width_mm) {
+    const double pile_height = s < 0 ? shape_.pile_left_mm : shape_.pile_right_mm;
+    const double w = kPi / shape_.pile_width_mm;
+    return sign * pile_height * w * std::sin(2 * w * (a - half_width_));
+  }
+  return 0.0;
+}
+
+double RutTerrain::tread_lowering(double s, double y) const noexcept {
+  const double a = std::abs(s);
+  if (!shape_.tread || a >= half_bottom_) return 0.0;
+  const double inner = half_bottom_ - shape_.tread_taper_mm;
+  const double across = a <= inner ? 1.0 : fall((a - inner) / shape_.tread_taper_mm);
+  const double along = 0.5 * (1 - std::cos(2 * kPi * y / shape_.tread_pitch_mm));
+  return shape_.tread_depth_mm * across * along;
+}
+
+cv::Vec2d RutTerrain::tread_gradient(double s, double y) const noexcept {
+  const double a = std::abs(s);
+  if (!shape_.tread || a >= half_bottom_) return {0.0, 0.0};
+  const double inner = half_bottom_ - shape_.tread_taper_mm;
+  const double u = (a - inner) / shape_.tread_taper_mm;
+  const double across = a <= inner ? 1.0 : fall(u);
+  const double across_slope = a <= inner ? 0.0 : fall_slope(u) / shape_.tread_taper_mm * (s < 0 ? -1 : 1);
+  const double w = 2 * kPi / shape_.tread_pitch_mm;
+  const double along = 0.5 * (1 - std::cos(w * y));
+  const double along_slope = 0.5 * w * std::sin(w * y);
+  return {shape_.tread_depth_mm * across_slope * along, shape_.tread_depth_mm * across * along_slope};
+}
+
+double RutTerrain::height(double x, double y) const noexcept {
+  const double s = x - centreline_x(y);
+  return profile(s) - tread_lowering(s, y);
+}
+
+cv::Vec2d RutTerrain::gradient(double x, double y) const noexcept {
+  const double s = x - centreline_x(y);
+  const cv::Vec2d tread = tread_gradient(s, y);
+  const double dh_ds = profile_slope(s) - tread[0];
+  const double xc_slope = shape_.wander_amplitude_mm == 0
+                              ? 0.0
+                              : shape_.wander_amplitude_mm * wander_k_ * std::cos(wander_k_ * y);
+  return {dh_ds, -dh_ds * xc_slope - tread[1]};
+}
+
+// ---------------------------------------------------------------------------------------------------
+// SolidTexture
+
+namespace {
+
+constexpr int kTileBits = 10;
+constexpr int kTile = 1 << kTileBits;  // texels per tile side; a power of two so wrapping is a mask
+constexpr int kTileMask = kTile - 1;
+
+// White noise, uniform in [-1, 1].
+cv::Mat white_noise(std::mt19937_64& rng) {
+  cv::Mat noise(kTile, kTile, CV_32F);
+  std::uniform_real_distribution<float> uniform(-1.0f, 1.0f);
+  for (int r = 0; r < kTile; ++r) {
+    float* row = noise.ptr<float>(r);
+    for (int c = 0; c < kTile; ++c) row[c] = uniform(rng);
+  }
+  return noise;
+}
+
+// `tile` blurred by a Gaussian of `sigma` texels with periodic (wrapped) borders.
+cv::Mat blur_periodic(const cv::Mat& tile, double sigma) {
+  const int pad = static_cast<int>(std::ceil(4 * sigma)) + 1;
+  cv::Mat padded, blurred;
+  cv::copyMakeBorder(tile, padded, pad, pad, pad, pad, cv::BORDER_WRAP);
+  cv::GaussianBlur(padded, blurred, cv::Size(0, 0), sigma, sigma, cv::BORDER_REFLECT);
+  return blurred(cv::Rect(pad, pad, kTile, kTile)).clone();
+}
+
+cv::Mat normalised(const cv::Mat& tile) {
+  cv::Scalar mean, stddev;
+  cv::meanStdDev(tile, mean, stddev);
+  cv::Mat out;
+  tile.convertTo(out, CV_32F, 1.0 / std::max(stddev[0], 1e-12), -mean[0] / std::max(stddev[0], 1e-12));
+  return out;
+}
+
+// Multi-scale isotropic noise: sum of blurred white noise at the given sigmas (texels) and weights.
+cv::Mat grain_tile(std::mt19937_64& rng, std::initializer_list<std::pair<double, double>> octaves) {
+  cv::Mat sum = cv::Mat::zeros(kTile, kTile, CV_32F);
+  for (const auto& [sigma, weight] : octaves) {
+    cv::Mat layer = normalised(blur_periodic(white_noise(rng), sigma));
+    cv::scaleAdd(layer, weight, sum, sum);
+  }
+  return normalised(sum);
+}
+
+// Grass seen from above: overlapping anti-aliased strands of random direction, length and shade,
+// painted with periodic wrap so the tile stays seamless.
+cv::Mat strand_tile(std::mt19937_64& rng) {
+  cv::Mat tile(kTile, kTile, CV_32F, cv::Scalar(-0.6));
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  constexpr int kStrands = 3500;
+  for (int i = 0; i < kStrands; ++i) {
+    const double x = unit(rng) * kTile, y = unit(rng) * kTile;
+    const double angle = unit(rng) * kPi;
+    const double length = 40 + 90 * unit(rng);
+    const int thickness = 2 + static_cast<int>(4 * unit(rng));
+    const double shade = -0.4 + 1.6 * unit(rng);
+    const cv::Point2d d(std::cos(angle) * length / 2, std::sin(angle) * length / 2);
+    for (int ox = -1; ox <= 1; ++ox) {
+      for (int oy = -1; oy <= 1; ++oy) {
+        const cv::Point2d c(x + ox * kTile, y + oy * kTile);
+        constexpr int kShift = 4;  // sub-pixel endpoints
+        const auto fixed = [](cv::Point2d p) {
+          return cv::Point(cvRound(p.x * (1 << kShift)), cvRound(p.y * (1 << kShift)));
+        };
+        cv::line(tile, fixed(c - d), fixed(c + d), cv::Scalar(shade), thickness, cv::LINE_AA, kShift);
+      }
+    }
+  }
+  return normalised(blur_periodic(tile, 0.7));
+}
+
+// Tile axes for a layer: texels per mm `1/texel_mm`, rotated about z by `angle` and tilted into z so the
+// texture is a genuine function of 3D position (walls are not smeared).
+void layer_axes(double texel_mm, double angle, cv::Vec3f& u, cv::Vec3f& v) {
+  const double k = 1.0 / texel_mm;
+  const double c = std::cos(angle), s = std::sin(angle);
+  u = cv::Vec3f(static_cast<float>(k * c), static_cast<float>(k * s), static_cast<float>(k * 0.6 * s));
+  v = cv::Vec3f(static_cast<float>(-k * s), static_cast<float>(k * c), static_cast<float>(k * 0.6 * c));
+}
+
+}  // namespace
+
+SolidTexture::SolidTexture(Texture kind, std::uint64_t seed) : kind_(kind) {
+  std::mt19937_64 rng(seed * 0x9E3779B97F4A7C15ull + static_cast<std::uint64_t>(kind) + 1);
+  std::uniform_real_distribution<double> angle(0.0, 2 * kPi);
+  // Texel sizes keep the finest features (~3 texels) above the sub-pixel sample spacing of a 640 px
+  // wide image at 350 mm (0.28 mm), so the box filter integrates them instead of aliasing them.
+  double fine_texel = 0.3, coarse_texel = 6.9, coarse_weight = 0.5;
+  switch (kind) {
+    case Texture::Sand:  // fine grain, good contrast
+      tile_ = grain_tile(rng, {{1.0, 1.0}, {3.5, 0.6}});
+      base_ = 0.5f, contrast_ = 0.16f;
+      break;
+    case Texture::Mud:  // darker, smoother, blotchy
+      tile_ = grain_tile(rng, {{1.5, 0.35}, {6.0, 1.0}});
+      fine_texel = 0.4, coarse_texel = 5.1, coarse_weight = 1.0;
+      base_ = 0.25f, contrast_ = 0.09f;
+      break;
+    case Texture::Snow:  // bright, very low contrast
+      tile_ = grain_tile(rng, {{1.0, 1.0}, {4.0, 0.5}});
+      coarse_texel = 8.7, coarse_weight = 0.3;
+      base_ = 0.85f, contrast_ = 0.012f;
+      break;
+    case Texture::Grass:  // blades and strands
+      tile_ = strand_tile(rng);
+      fine_texel = 0.35, coarse_texel = 3.7, coarse_weight = 0.4;
+      base_ = 0.38f, contrast_ = 0.15f;
+      break;
+  }
+  layer_axes(fine_texel, angle(rng), fine_.u, fine_.v);
+  layer_axes(coarse_texel, angle(rng), coarse_.u, coarse_.v);
+  fine_.weight = 1.0f;
+  coarse_.weight = static_cast<float>(coarse_weight);
+}
+
+float SolidTexture::sample(const Layer& layer, const cv::Vec3d& p) const noexcept {
+  // Coordinates in double: after minutes of travel y reaches 1e5 mm, 1e6 texels, beyond float's reach.
+  const double x = layer.u[0] * p[0] + layer.u[1] * p[1] + layer.u[2] * p[2];
+  const double y = layer.v[0] * p[0] + layer.v[1] * p[1] + layer.v[2] * p[2];
+  const double fx = std::floor(x), fy = std::floor(y);
+  const float ax = static_cast<float>(x - fx), ay = static_cast<float>(y - fy);
+  const int x0 = static_cast<int>(static_cast<std::int64_t>(fx) & kTileMask);
+  const int y0 = static_cast<int>(static_cast<std::int64_t>(fy) & kTileMask);
+  const int x1 = (x0 + 1) & kTileMask, y1 = (y0 + 1) & kTileMask;
+  const float* r0 = tile_.ptr<float>(y0);
+  const float* r1 = tile_.ptr<float>(y1);
+  const float top = r0[x0] + ax * (r0[x1] - r0[x0]);
+  const float bottom = r1[x0] + ax * (r1[x1] - r1[x0]);
+  return layer.weight * (top + ay * (bottom - top));
+}
+
+float SolidTexture::albedo(const cv::Vec3d& p) const noexcept {
+  float n = sample(fine_, p) + sample(coarse_, p);
+  if (kind_ == Texture::Mud) n = 1.6f * std::tanh(1.2f * n);  // blotches: flattened extremes
+  return std::clamp(base_ + contrast_ * n, 0.01f, 0.99f);
+}
+
+}  // namespace rutd

@@ -1,0 +1,196 @@
+// Rendered images of the synthetic renderer and the synthetic source: consistency with the calibration,
+// world-fixed texture, determinism, texture contrast, sizes; render times are printed, not asserted.
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+
+#include <opencv2/calib3d.hpp>
+#include <opencv2/core/utility.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "drivers/synthetic_renderer.hpp"
+#include "drivers/synthetic_source.hpp"
+
+namespace rutd {
+namespace {
+
+SynthParams quiet_params() {
+  SynthParams p;
+  p.noise_sigma = 0;
+  p.full_well_e = 0;
+  return p;
+}
+
+double mean_abs_diff(const cv::Mat& a, const cv::Mat& b) {
+  cv::Mat d;
+  cv::absdiff(a, b, d);
+  return cv::mean(d)[0];
+}
+
+TEST(SyntheticRender, RightImageAgreesWithCalibrationAndGeometry) {
+  const SynthParams p = quiet_params();
+  const SyntheticRenderer renderer(p);
+  StereoFrame frame;
+  renderer.render(2, frame);
+  const StereoCalibration& c = renderer.calibration();
+  // For each left pixel of a central block: its 3D point, projected into the right image.
+  const cv::Rect block(200, 150, 240, 180);
+  cv::Mat map(block.size(), CV_32FC2);
+  for (int v = 0; v < block.height; ++v) {
+    for (int u = 0; u < block.width; ++u) {
+      const auto hit = renderer.intersect_left(2, renderer.pixel_ray(Camera::Left, block.x + u, block.y + v));
+      ASSERT_TRUE(hit.has_value());
+      const cv::Vec3d in_right = c.R * *hit + c.T;
+      std::vector<cv::Point3d> point{cv::Point3d(in_right[0], in_right[1], in_right[2])};
+      std::vector<cv::Point2d> px;
+      cv::projectPoints(point, cv::Vec3d(0, 0, 0), cv::Vec3d(0, 0, 0), c.M2, c.D2, px);
+      map.at<cv::Vec2f>(v, u) = cv::Vec2f(static_cast<float>(px[0].x), static_cast<float>(px[0].y));
+    }
+  }
+  // The warped right image matches the left one best at zero offset, better than half a pixel away.
+  const cv::Mat left = frame.left(block);
+  const auto error_at = [&](float dx, float dy) {
+    cv::Mat moved = map + cv::Scalar(dx, dy), warped;
+    cv::remap(frame.right, warped, moved, cv::noArray(), cv::INTER_CUBIC);
+    return mean_abs_diff(left, warped);
+  };
+  const double at_zero = error_at(0, 0);
+  std::printf("left vs warped right: %.2f grey levels;", at_zero);
+  for (const cv::Point2f o : {cv::Point2f(0.5f, 0), cv::Point2f(-0.5f, 0), cv::Point2f(0, 0.5f), cv::Point2f(0, -0.5f)}) {
+    const double off = error_at(o.x, o.y);
+    std::printf(" (%+.1f, %+.1f) px off: %.2f;", o.x, o.y, off);
+    EXPECT_LT(at_zero, 0.6 * off);
+  }
+  std::printf("\n");
+}
+
+TEST(SyntheticRender, TextureIsWorldFixed) {
+  // Pinhole cameras over flat ground moving by exactly 7 pixel rows per frame: frame k+1 must be frame
+  // k shifted by 7 rows (the camera's Y axis is world -y, so the scene moves to larger v).
+  SynthParams p = quiet_params();
+  p.rig.image_size = {320, 240};
+  p.rig.distortion_left = p.rig.distortion_right = cv::Vec<double, 5>(0, 0, 0, 0, 0);
+  p.rut.lateral_offset_mm = 5000;
+  p.bit_depth = 16;
+  const double f = 160 / std::tan(p.rig.hfov_deg / 2 * std::acos(-1.0) / 180);
+  p.speed_mm_s = 7 * p.rig.height_mm / f * p.fps;
+  const SyntheticRenderer renderer(p);
+  StereoFrame a, b;
+  renderer.render(40, a);
+  renderer.render(41, b);
+  const cv::Mat before = a.left(cv::Rect(0, 0, 320, 233)), after = b.left(cv::Rect(0, 7, 320, 233));
+  double worst = 0;
+  cv::minMaxLoc(cv::abs(cv::Mat_<double>(before) - cv::Mat_<double>(after)), nullptr, &worst);
+  const double unshifted = mean_abs_diff(a.left, b.left);
+  std::printf("shifted frames differ by at most %.0f of 65535; unshifted by %.0f on average\n", worst, unshifted);
+  EXPECT_LE(worst, 2);
+  EXPECT_GT(unshifted, 500);
+}
+
+TEST(SyntheticRender, DeterministicPerSeedFrameAndCamera) {
+  SynthParams p;
+  p.rig.image_size = {160, 120};
+  p.speed_mm_s = 0;  // same scene every frame: only the noise changes
+  StereoFrame a, b, c, d;
+  SyntheticRenderer(p).render(3, a);
+  SyntheticRenderer(p).render(3, b);
+  EXPECT_EQ(cv::norm(a.left, b.left, cv::NORM_INF), 0);
+  EXPECT_EQ(cv::norm(a.right, b.right, cv::NORM_INF), 0);
+  SyntheticRenderer(p).render(4, c);
+  const double noise = mean_abs_diff(a.left, c.left);
+  std::printf("frame-to-frame noise difference %.2f grey levels\n", noise);
+  EXPECT_GT(noise, 0.5);  // fresh noise per frame...
+  EXPECT_LT(noise, 5.0);  // ...on the same scene
+  p.seed = 2;
+  SyntheticRenderer(p).render(3, d);
+  EXPECT_GT(mean_abs_diff(a.left, d.left), 5.0);  // another seed, another texture
+}
+
+TEST(SyntheticRender, SnowHasMuchLessContrastThanSand) {
+  double stddev[4], mean[4];
+  for (Texture texture : {Texture::Sand, Texture::Mud, Texture::Snow, Texture::Grass}) {
+    SynthParams p = quiet_params();
+    p.texture = texture;
+    p.rut.lateral_offset_mm = 5000;  // texture only, no shading of walls
+    StereoFrame frame;
+    SyntheticRenderer(p).render(0, frame);
+    cv::Scalar m, s;
+    cv::meanStdDev(frame.left, m, s);
+    const int i = static_cast<int>(texture);
+    mean[i] = m[0], stddev[i] = s[0];
+    std::printf("%-5s mean %6.1f std %5.2f grey levels\n", std::string(to_string(texture)).c_str(), m[0], s[0]);
+  }
+  EXPECT_LT(stddev[2], stddev[0] / 4);
+  EXPECT_GT(mean[2], mean[0]);  // snow is bright
+  EXPECT_LT(mean[1], mean[0]);  // mud is dark
+  EXPECT_GT(stddev[3], 5);      // grass has structure
+}
+
+TEST(SyntheticRender, RendersBothSizesAndReportsTimes) {
+  StereoFrame frame;
+  for (const cv::Size size : {cv::Size(640, 480), cv::Size(1280, 1024)}) {
+    SynthParams p;
+    p.rig.image_size = size;
+    const SyntheticRenderer renderer(p);
+    const auto start = std::chrono::steady_clock::now();
+    renderer.render(1, frame);
+    const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+    std::printf("render %dx%d pair: %.0f ms (%d threads)\n", size.width, size.height, ms, cv::getNumThreads());
+    EXPECT_EQ(frame.left.size(), size);
+    EXPECT_EQ(frame.right.type(), CV_8UC1);
+    EXPECT_EQ(frame.seq, 1u);
+    EXPECT_EQ(frame.t_ns, std::llround(1e9 / p.fps));
+    const double mean = cv::mean(frame.right)[0];
+    EXPECT_GT(mean, 60);
+    EXPECT_LT(mean, 200);
+  }
+  // A frame that already fits is refilled in place.
+  SynthParams p;
+  p.rig.image_size = {1280, 1024};
+  p.supersample = 1;
+  const uchar* left = frame.left.data;
+  const uchar* right = frame.right.data;
+  SyntheticRenderer(p).render(2, frame);
+  EXPECT_EQ(frame.left.data, left);
+  EXPECT_EQ(frame.right.data, right);
+}
+
+TEST(SyntheticSource, ProducesTheRenderersFramesInSequence) {
+  SynthParams p;
+  p.rig.image_size = {96, 64};
+  SyntheticSource source(p, {.paced = false, .first_index = 5, .frame_count = 3});
+  const SyntheticRenderer reference(p);
+  StereoFrame frame, expected;
+  for (std::uint64_t i = 5; i < 8; ++i) {
+    ASSERT_EQ(source.next(frame), SourceStatus::Ok);
+    EXPECT_EQ(frame.seq, i);
+    reference.render(i, expected);
+    EXPECT_EQ(frame.t_ns, expected.t_ns);
+    EXPECT_EQ(cv::norm(frame.left, expected.left, cv::NORM_INF), 0);
+    EXPECT_EQ(cv::norm(frame.right, expected.right, cv::NORM_INF), 0);
+  }
+  EXPECT_EQ(source.next(frame), SourceStatus::EndOfStream);
+  EXPECT_TRUE(source.error_message().empty());
+  EXPECT_EQ(source.calibration().M1, reference.calibration().M1);
+}
+
+TEST(SyntheticSource, PacedFramesCarryIncreasingMonotonicTimes) {
+  SynthParams p;
+  p.rig.image_size = {64, 48};
+  p.fps = 100;
+  SyntheticSource source(p);
+  StereoFrame frame;
+  std::int64_t last = 0;
+  for (int i = 0; i < 4; ++i) {
+    ASSERT_EQ(source.next(frame), SourceStatus::Ok);
+    EXPECT_EQ(frame.seq, static_cast<std::uint64_t>(i));
+    EXPECT_EQ(frame.clock, ClockKind::Monotonic);
+    EXPECT_GT(frame.t_ns, last);
+    last = frame.t_ns;
+  }
+}
+
+}  // namespace
+}  // namespace rutd
