@@ -1,2 +1,38 @@
-// Placeholder until the command line lands; keeps the tree building.
-int main() { return 0; }
+// rutd: real-time tyre rut depth from a stereo camera pair. main() only wires the commands; each
+// command lives in its own file and calls the libraries. Error policy at this level: bad input found at
+// start-up is printed once (naming the file and the field) and the process exits non-zero.
+#include <CLI/CLI.hpp>
+#include <spdlog/sinks/stdout_color_sinks.h>
+#include <spdlog/spdlog.h>
+
+#include <exception>
+#include <iostream>
+
+#include "daemon/commands.hpp"
+#include "drivers/input_error.hpp"
+
+int main(int argc, char** argv) {
+  // Logs go to stderr: stdout carries data (CSV, candump) that other programs read.
+  spdlog::set_default_logger(spdlog::stderr_color_mt("rutd"));
+  spdlog::set_pattern("%Y-%m-%dT%H:%M:%S.%e %^%l%$ %v");
+
+  CLI::App app{"rutd: real-time tyre rut depth from a calibrated stereo camera pair"};
+  app.require_subcommand(1);
+  int exit_code = 0;
+  rutd::add_run_command(app, exit_code);
+  rutd::add_synth_command(app, exit_code);
+  rutd::add_replay_command(app, exit_code);
+  rutd::add_calibrate_command(app, exit_code);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e);
+  } catch (const rutd::InputError& e) {
+    std::cerr << "rutd: error: " << e.what() << '\n';
+    return 2;
+  } catch (const std::exception& e) {
+    std::cerr << "rutd: error: " << e.what() << '\n';
+    return 2;
+  }
+  return exit_code;
+}

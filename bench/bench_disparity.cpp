@@ -1,0 +1,93 @@
+// Per-strip cost of the CPU disparity engines and of the DIC refinement, on textured strips of
+// 640x48 and 1280x64 px with a 64 px band (the sizes and band of a narrow-band rut strip).
+#include <benchmark/benchmark.h>
+
+#include <opencv2/imgproc.hpp>
+
+#include "pipeline/dic_refine.hpp"
+#include "pipeline/disparity.hpp"
+
+namespace {
+
+using rutd::EngineKind;
+
+struct Strips {
+  cv::Mat left, right;
+};
+
+// Smoothed random texture; the right view is the left shifted by 40.3 px (cubic interpolation).
+Strips make_strips(cv::Size size) {
+  cv::Mat canvas(size.height, size.width + 64, CV_32FC1);
+  cv::RNG rng(7);
+  rng.fill(canvas, cv::RNG::NORMAL, 0.0, 1.0);
+  cv::GaussianBlur(canvas, canvas, cv::Size(0, 0), 1.2);
+  cv::normalize(canvas, canvas, 20, 235, cv::NORM_MINMAX);
+  Strips s;
+  canvas.colRange(0, size.width).convertTo(s.left, CV_8U);
+  const cv::Matx23d shift(1, 0, -40.3, 0, 1, 0);  // right(x) = left(x + 40.3)
+  cv::Mat right;
+  cv::warpAffine(canvas, right, shift, canvas.size(), cv::INTER_CUBIC, cv::BORDER_REFLECT);
+  right.colRange(0, size.width).convertTo(s.right, CV_8U);
+  return s;
+}
+
+constexpr rutd::DisparityBand kBand{16, 64};
+
+cv::Size size_of(const benchmark::State& state) {
+  return {static_cast<int>(state.range(1)), static_cast<int>(state.range(2))};
+}
+
+void BM_Engine(benchmark::State& state) {
+  const auto kind = static_cast<EngineKind>(state.range(0));
+  const Strips s = make_strips(size_of(state));
+  auto engine = rutd::make_cpu_engine(kind);
+  cv::Mat disparity;
+  for (auto _ : state) {
+    engine->compute(s.left, s.right, kBand, disparity);
+    benchmark::DoNotOptimize(disparity.data);
+  }
+  state.SetLabel(std::string(rutd::to_string(kind)));
+}
+
+// DIC on the SGBM disparity of the strip; each iteration restores the engine's disparity first (a
+// ~0.1 ms copy, included).
+void BM_Dic(benchmark::State& state) {
+  const Strips s = make_strips(size_of(state));
+  auto engine = rutd::make_cpu_engine(EngineKind::Sgbm);
+  cv::Mat initial, disparity;
+  engine->compute(s.left, s.right, kBand, initial);
+  rutd::DicParams params;
+  params.step = static_cast<int>(state.range(0));
+  rutd::DicWorkspace ws;
+  rutd::DicStats stats;
+  for (auto _ : state) {
+    initial.copyTo(disparity);
+    stats = rutd::refine_disparity_dic(s.left, s.right, disparity, params, ws);
+  }
+  state.counters["refined"] = stats.refined;
+  state.counters["rejected"] = stats.rejected;
+  state.counters["iterations"] = stats.mean_iterations;
+}
+
+void engine_args(benchmark::internal::Benchmark* b) {
+  for (EngineKind kind : {EngineKind::Bm, EngineKind::Sgbm, EngineKind::Sgbm3Way, EngineKind::Hh4, EngineKind::Hh}) {
+    b->Args({static_cast<long>(kind), 640, 48});
+    b->Args({static_cast<long>(kind), 1280, 64});
+  }
+  b->ArgNames({"engine", "width", "rows"});
+}
+
+void dic_args(benchmark::internal::Benchmark* b) {
+  for (long step : {1, 2}) {
+    b->Args({step, 640, 48});
+    b->Args({step, 1280, 64});
+  }
+  b->ArgNames({"step", "width", "rows"});
+}
+
+BENCHMARK(BM_Engine)->Apply(engine_args)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_Dic)->Apply(dic_args)->Unit(benchmark::kMillisecond);
+
+}  // namespace
+
+BENCHMARK_MAIN();

@@ -1,0 +1,91 @@
+// rutd replay DIR: measures every pair of a recording, as fast as it can, and writes one CSV line per
+// pair (and the CAN frames that would have been sent, in candump format). Output is flushed per line so
+// a failure part-way keeps everything measured before it.
+#include <spdlog/spdlog.h>
+
+#include <chrono>
+#include <fstream>
+#include <iostream>
+#include <map>
+#include <memory>
+
+#include "daemon/commands.hpp"
+#include "daemon/measure_options.hpp"
+#include "daemon/run_summary.hpp"
+#include "drivers/can_encoder.hpp"
+#include "drivers/candump_log.hpp"
+#include "drivers/input_error.hpp"
+#include "drivers/measurement_csv.hpp"
+#include "drivers/recording.hpp"
+
+namespace rutd {
+namespace {
+
+struct ReplayOptions {
+  std::string dir;
+  std::string out;      // empty or "-": stdout
+  std::string candump;  // empty: none
+  std::string can_interface = "can0";
+  MeasureOptions measure;
+};
+
+std::ostream& open_output(const std::string& path, std::ofstream& file, const char* option) {
+  if (path.empty() || path == "-") return std::cout;
+  file.open(path, std::ios::out | std::ios::trunc);
+  if (!file) throw InputError(path, option, "cannot open for writing");
+  return file;
+}
+
+int run_replay(const ReplayOptions& o) {
+  RecordingReader reader(o.dir);  // throws InputError for a bad folder, calibration or header
+  const MeasurerConfig config = resolve_measure_options(o.measure, reader.calibration().image_size);
+  StereoMeasurer measurer(reader.calibration(), config);
+
+  std::ofstream csv_file, can_file;
+  MeasurementCsvWriter csv(open_output(o.out, csv_file, "--out"), /*flush_each_line=*/true);
+  std::unique_ptr<CandumpLogWriter> candump;
+  CanEncoder encoder;
+  if (!o.candump.empty()) candump = std::make_unique<CandumpLogWriter>(open_output(o.candump, can_file, "--candump"), o.can_interface);
+
+  spdlog::info("replaying {} with engine {}{}", o.dir, to_string(config.engine), config.dic ? " + DIC" : "");
+  RunSummary summary;
+  StereoFrame frame;
+  std::array<CanFrame, 2> frames{};
+  int exit_code = 0;
+  for (;;) {
+    const SourceStatus status = reader.next(frame);
+    if (status == SourceStatus::EndOfStream) break;
+    if (status != SourceStatus::Ok) {
+      spdlog::error("{}", reader.error_message());
+      exit_code = 1;  // what was measured so far is already written
+      break;
+    }
+    const RutMeasurement m = measurer.measure(frame.left, frame.right);
+    summary.add(m, measurer.diagnostics());
+    csv.write(frame.seq, frame.t_ns, m);
+    if (candump) {
+      const int n = encoder.encode_measurement(m, frames);
+      for (int i = 0; i < n; ++i) candump->write(frames[static_cast<std::size_t>(i)], frame.t_ns);
+    }
+  }
+  if (reader.truncated_tail())
+    spdlog::warn("{}: the last line of frames.csv was cut off; replayed up to the last complete pair", o.dir);
+  summary.log();
+  return exit_code;
+}
+
+}  // namespace
+
+void add_replay_command(CLI::App& app, int& exit_code) {
+  auto options = std::make_shared<ReplayOptions>();
+  CLI::App* cmd = app.add_subcommand("replay", "Measure every stereo pair of a recording folder");
+  cmd->add_option("dir", options->dir, "Recording folder (calibration.yaml, frames.csv, left/, right/)")->required();
+  cmd->add_option("--out", options->out, "Measurement CSV file (default: standard output)");
+  cmd->add_option("--candump", options->candump, "Also write the CAN frames that would be sent, candump -L format");
+  cmd->add_option("--can-interface", options->can_interface, "Interface name written in the candump log")
+      ->capture_default_str();
+  add_measure_options(*cmd, options->measure);
+  cmd->callback([options, &exit_code] { exit_code = run_replay(*options); });
+}
+
+}  // namespace rutd

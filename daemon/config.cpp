@@ -1,0 +1,312 @@
+#include "daemon/config.hpp"
+
+#include <yaml-cpp/yaml.h>
+
+#include <fstream>
+#include <functional>
+#include <set>
+#include <sstream>
+
+#include "daemon/default_config.hpp"  // generated from config/rutd.yaml
+#include "drivers/input_error.hpp"
+
+namespace rutd {
+namespace {
+
+// One YAML mapping being read: remembers which keys were asked for so that a key nobody reads (a typo)
+// is an error rather than silently ignored.
+class Section {
+ public:
+  Section(YAML::Node node, std::string path, const std::string& file)
+      : node_(std::move(node)), path_(std::move(path)), file_(file) {
+    if (node_ && !node_.IsNull() && !node_.IsMap()) fail_at(node_, path_.empty() ? "(top level)" : path_, "expected a mapping of keys");
+  }
+
+  // Reads `key` into `out` if present (absent keeps the default); `check` returns "" or what is wrong.
+  template <typename T>
+  Section& get(const char* key, T& out, const std::function<std::string(const T&)>& check = {}) {
+    known_.insert(key);
+    const YAML::Node value = present(key);
+    if (!value) return *this;
+    T parsed{};
+    try {
+      if (!value.IsScalar()) throw YAML::Exception(value.Mark(), "");
+      parsed = value.as<T>();
+    } catch (const YAML::Exception&) {
+      fail_at(value, name(key), std::string("expected ") + type_name<T>() + ", got '" + text(value) + "'");
+    }
+    if (check) {
+      const std::string problem = check(parsed);
+      if (!problem.empty()) fail_at(value, name(key), problem);
+    }
+    out = parsed;
+    return *this;
+  }
+
+  // Reads `key` as text and hands it to `parse`, which returns "" or what is wrong.
+  Section& parse(const char* key, const std::function<std::string(const std::string&)>& parse_text) {
+    std::string s;
+    get<std::string>(key, s);
+    if (const YAML::Node value = present(key)) {
+      const std::string problem = parse_text(s);
+      if (!problem.empty()) fail_at(value, name(key), problem);
+    }
+    return *this;
+  }
+
+  Section& get_int_list(const char* key, std::vector<int>& out) {
+    known_.insert(key);
+    const YAML::Node value = present(key);
+    if (!value) return *this;
+    if (!value.IsSequence()) fail_at(value, name(key), "expected a list of integers");
+    out.clear();
+    for (const auto& item : value) {
+      try {
+        out.push_back(item.as<int>());
+      } catch (const YAML::Exception&) {
+        fail_at(item, name(key), "expected an integer, got '" + text(item) + "'");
+      }
+    }
+    return *this;
+  }
+
+  Section child(const char* key) {
+    known_.insert(key);
+    return Section(present(key), name(key), file_);
+  }
+
+  bool has(const char* key) const { return static_cast<bool>(present(key)); }
+
+  // Every key of the mapping must have been read.
+  void finish() const {
+    if (!node_ || !node_.IsMap()) return;
+    for (const auto& kv : node_) {
+      const std::string key = kv.first.as<std::string>();
+      if (!known_.count(key)) {
+        std::string known;
+        for (const auto& k : known_) known += (known.empty() ? "" : ", ") + k;
+        fail_at(kv.first, name(key.c_str()), "unknown key (known here: " + known + ")");
+      }
+    }
+  }
+
+  [[noreturn]] void fail(const char* key, const std::string& message) const {
+    const YAML::Node value = present(key);
+    fail_at(value ? value : node_, name(key), message);
+  }
+
+ private:
+  YAML::Node present(const char* key) const {
+    if (!node_ || !node_.IsMap()) return YAML::Node(YAML::NodeType::Undefined);
+    for (const auto& kv : node_)
+      if (kv.first.as<std::string>() == key) return kv.second;
+    return YAML::Node(YAML::NodeType::Undefined);
+  }
+  std::string name(const char* key) const { return path_.empty() ? key : path_ + "." + key; }
+  static std::string text(const YAML::Node& n) {
+    if (n.IsScalar()) return n.Scalar();
+    std::ostringstream os;
+    os << n;
+    return os.str();
+  }
+  [[noreturn]] void fail_at(const YAML::Node& at, const std::string& key, const std::string& message) const {
+    const int line = at && at.Mark().line >= 0 ? at.Mark().line + 1 : 0;
+    throw InputError(file_, (line > 0 ? "line " + std::to_string(line) + ", " : std::string()) + key, message);
+  }
+  template <typename T>
+  static const char* type_name() {
+    if constexpr (std::is_same_v<T, bool>) return "true or false";
+    else if constexpr (std::is_integral_v<T>) return "an integer";
+    else if constexpr (std::is_floating_point_v<T>) return "a number";
+    else return "text";
+  }
+
+  YAML::Node node_;
+  std::string path_;
+  const std::string& file_;
+  std::set<std::string> known_;
+};
+
+template <typename T>
+std::function<std::string(const T&)> in_range(T lo, T hi) {
+  return [lo, hi](const T& v) {
+    if (v >= lo && v <= hi) return std::string();
+    std::ostringstream os;
+    os << "must be between " << lo << " and " << hi << ", got " << v;
+    return os.str();
+  };
+}
+
+std::string parse_size(const std::string& s, cv::Size& size) {
+  int w = 0, h = 0;
+  char x = 0;
+  std::istringstream in(s);
+  if (!(in >> w >> x >> h) || x != 'x' || !in.eof() || w < 64 || h < 64 || w > 8192 || h > 8192)
+    return "expected WIDTHxHEIGHT between 64x64 and 8192x8192, got '" + s + "'";
+  size = {w, h};
+  return {};
+}
+
+// Accepts decimal or 0x-prefixed hexadecimal.
+std::string parse_byte(const std::string& s, std::uint8_t& out, unsigned max) {
+  std::size_t used = 0;
+  unsigned long v = 0;
+  try {
+    v = std::stoul(s, &used, 0);
+  } catch (const std::exception&) {
+    used = 0;
+  }
+  if (used != s.size() || v > max) return "expected an integer 0.." + std::to_string(max) + " (decimal or 0x..), got '" + s + "'";
+  out = static_cast<std::uint8_t>(v);
+  return {};
+}
+
+void read_synthetic(Section s, SynthParams& p) {
+  s.parse("size", [&](const std::string& t) { return parse_size(t, p.rig.image_size); })
+      .get<double>("fps", p.fps, in_range(0.1, 1000.0))
+      .get<double>("baseline_mm", p.rig.baseline_mm, in_range(5.0, 1000.0))
+      .get<double>("height_mm", p.rig.height_mm, in_range(50.0, 5000.0))
+      .get<double>("roll_deg", p.rig.roll_deg, in_range(-30.0, 30.0))
+      .get<double>("pitch_deg", p.rig.pitch_deg, in_range(-30.0, 30.0))
+      .get<double>("hfov_deg", p.rig.hfov_deg, in_range(10.0, 120.0))
+      .parse("texture",
+             [&](const std::string& t) {
+               const auto tex = parse_texture(t);
+               if (!tex) return "expected sand, mud, snow or grass, got '" + t + "'";
+               p.texture = *tex;
+               return std::string();
+             })
+      .get<double>("depth_mm", p.rut.depth_mm, in_range(0.5, 500.0))
+      .get<double>("width_mm", p.rut.width_mm, in_range(10.0, 2000.0))
+      .get<double>("bottom_width_mm", p.rut.bottom_width_mm, in_range(0.0, 2000.0))
+      .get<double>("pile_left_mm", p.rut.pile_left_mm, in_range(0.0, 300.0))
+      .get<double>("pile_right_mm", p.rut.pile_right_mm, in_range(0.0, 300.0))
+      .get<double>("pile_width_mm", p.rut.pile_width_mm, in_range(1.0, 1000.0))
+      .get<double>("wander_mm", p.rut.wander_amplitude_mm, in_range(0.0, 1000.0))
+      .get<double>("speed_mm_s", p.speed_mm_s, in_range(0.0, 1e5))
+      .get<double>("noise", p.noise_sigma, in_range(0.0, 50.0))
+      .get<std::uint64_t>("seed", p.seed);
+  if (p.rut.bottom_width_mm >= p.rut.width_mm) s.fail("bottom_width_mm", "must be smaller than width_mm");
+  s.finish();
+}
+
+void read_measurement(Section s, MeasurerConfig& m) {
+  int strip_rows = m.strip.rows, strip_row0 = -1;
+  s.parse("engine",
+          [&](const std::string& t) {
+            const auto e = parse_engine(t);
+            if (!e) return "expected bm, sgbm, sgbm3way, hh4 or hh, got '" + t + "'";
+            m.engine = *e;
+            return std::string();
+          })
+      .get<bool>("dic", m.dic)
+      .get<int>("strip_rows", strip_rows, in_range(0, 4096))
+      .get<int>("strip_row0", strip_row0, in_range(-1, 65535))
+      .get<double>("near_mm", m.range.near_mm, in_range(20.0, 20000.0))
+      .get<double>("far_mm", m.range.far_mm, in_range(20.0, 20000.0));
+  if (m.range.near_mm >= m.range.far_mm) s.fail("near_mm", "must be smaller than far_mm");
+  if (strip_row0 >= 0 && strip_rows == 0) s.fail("strip_row0", "needs strip_rows too");
+  m.strip = StripRoi{std::max(strip_row0, 0), strip_rows};
+  // A strip given by its rows only is centred once the image size is known (see resolve_strip_rows).
+  if (strip_rows > 0 && strip_row0 < 0) m.strip.row0 = -1;
+  s.finish();
+}
+
+void read_rut(Section s, RutParams& r) {
+  s.get<double>("min_width_mm", r.min_rut_width_mm, in_range(10.0, 5000.0))
+      .get<double>("max_width_mm", r.max_rut_width_mm, in_range(10.0, 5000.0))
+      .get<double>("fit_window_mm", r.fit_window_mm, in_range(2.0, 500.0))
+      .get<double>("bin_mm", r.bin_mm, in_range(0.1, 20.0))
+      .get<double>("min_depth_mm", r.min_rut_depth_mm, in_range(0.1, 500.0));
+  if (r.min_rut_width_mm >= r.max_rut_width_mm) s.fail("min_width_mm", "must be smaller than max_width_mm");
+  s.finish();
+}
+
+void read_can(Section s, CanIdConfig& c) {
+  s.parse("id_format",
+          [&](const std::string& t) {
+            if (t != "j1939" && t != "11bit") return "expected j1939 or 11bit, got '" + t + "'";
+            c.extended = t == "j1939";
+            return std::string();
+          })
+      .parse("source_address", [&](const std::string& t) { return parse_byte(t, c.source_address, 0xFD); })
+      .parse("priority", [&](const std::string& t) { return parse_byte(t, c.priority, 7); });
+  if (const std::string problem = check_can_id_config(c); !problem.empty()) s.fail("id_format", problem);
+  s.finish();
+}
+
+}  // namespace
+
+RutdConfig parse_config(const std::string& yaml_text, const std::string& file) {
+  RutdConfig c;
+  c.file = file;
+  YAML::Node root;
+  try {
+    root = YAML::Load(yaml_text);
+  } catch (const YAML::Exception& e) {
+    throw InputError(file, "line " + std::to_string(e.mark.line + 1), "not valid YAML: " + e.msg);
+  }
+  Section top(root, "", c.file);
+
+  Section source = top.child("source");
+  source.parse("type", [&](const std::string& t) {
+    if (t == "synthetic") c.source = SourceKind::Synthetic;
+    else if (t == "replay") c.source = SourceKind::Replay;
+    else if (t == "aravis") c.source = SourceKind::Aravis;
+    else return "expected synthetic, replay or aravis, got '" + t + "'";
+    return std::string();
+  });
+  read_synthetic(source.child("synthetic"), c.synthetic);
+  Section replay = source.child("replay");
+  replay.get<std::string>("dir", c.replay.dir).get<bool>("paced", c.replay.paced).get<bool>("loop", c.replay.loop);
+  replay.finish();
+  if (c.source == SourceKind::Replay && c.replay.dir.empty()) replay.fail("dir", "the replay source needs a recording folder");
+  source.finish();
+
+  top.get<std::string>("calibration", c.calibration);
+  if (c.source == SourceKind::Aravis && c.calibration.empty()) top.fail("calibration", "cameras need a calibration file");
+  read_measurement(top.child("measurement"), c.measurement);
+  read_rut(top.child("rut"), c.measurement.rut);
+  read_can(top.child("can"), c.can);
+
+  Section sinks = top.child("sinks");
+  sinks.get<std::string>("socketcan", c.sinks.socketcan)
+      .get<std::string>("candump", c.sinks.candump)
+      .get<std::string>("can_interface_name", c.sinks.can_interface_name)
+      .get<std::string>("csv", c.sinks.csv);
+  sinks.finish();
+
+  Section pipeline = top.child("pipeline");
+  pipeline.get<double>("max_frame_age_ms", c.pipeline.max_frame_age_ms, in_range(1.0, 60000.0))
+      .get<double>("status_period_ms", c.pipeline.status_period_ms, in_range(10.0, 10000.0))
+      .get_int_list("cpu_affinity", c.pipeline.cpu_affinity)
+      .get<int>("realtime_priority", c.pipeline.realtime_priority, in_range(0, 99));
+  pipeline.finish();
+
+  Section logging = top.child("logging");
+  logging.parse("level", [&](const std::string& t) {
+    static const std::set<std::string> levels{"trace", "debug", "info", "warn", "error"};
+    if (!levels.count(t)) return "expected trace, debug, info, warn or error, got '" + t + "'";
+    c.logging.level = t;
+    return std::string();
+  });
+  logging.get<double>("stats_period_s", c.logging.stats_period_s, in_range(0.1, 3600.0));
+  logging.finish();
+  top.finish();
+  return c;
+}
+
+RutdConfig load_config(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw InputError(path, "file", "cannot open the configuration file");
+  std::ostringstream text;
+  text << in.rdbuf();
+  return parse_config(text.str(), path);
+}
+
+const std::string& default_config_text() {
+  static const std::string text = kDefaultConfigText;
+  return text;
+}
+
+}  // namespace rutd

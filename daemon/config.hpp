@@ -1,0 +1,64 @@
+#pragma once
+// rutd's configuration: one YAML file loaded into one typed struct, with defaults, checked at start-up.
+// Every error names the file, the line and the key ("rutd.yaml: line 12, measurement.engine: ...").
+// `rutd run` without --config uses the embedded default (config/rutd.yaml, compiled in), which runs on any
+// machine: the synthetic cameras at their real frame rate, CAN frames on stdout in candump format.
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "drivers/can_encoder.hpp"
+#include "drivers/synthetic_renderer.hpp"
+#include "pipeline/measurer.hpp"
+
+namespace rutd {
+
+enum class SourceKind { Synthetic, Replay, Aravis };
+
+struct ReplaySourceConfig {
+  std::string dir;     // recording folder
+  bool paced = true;   // play at the recording's own timestamps (false: as fast as it reads)
+  bool loop = false;   // start again at the end
+};
+
+struct SinkConfig {
+  std::string socketcan;      // CAN interface (e.g. can0); empty: off
+  std::string candump = "-";  // candump -L log file; "-": standard output; empty: off
+  std::string can_interface_name = "can0";  // interface name written in the candump log
+  std::string csv;            // measurement CSV file; empty: off
+};
+
+struct PipelineSettings {
+  double max_frame_age_ms = 500;   // older frames are refused as stale
+  double status_period_ms = 100;   // the status CAN message's period
+  std::vector<int> cpu_affinity;   // one CPU per stage thread, empty: no pinning
+  int realtime_priority = 0;       // SCHED_FIFO priority of the stage threads, 0: normal scheduling
+};
+
+struct LoggingConfig {
+  std::string level = "info";   // trace, debug, info, warn, error
+  double stats_period_s = 10;   // period of the rate and latency log lines
+};
+
+struct RutdConfig {
+  std::string file = "(embedded default)";  // where this came from, for messages
+  SourceKind source = SourceKind::Synthetic;
+  SynthParams synthetic;
+  ReplaySourceConfig replay;
+  std::string calibration;  // calibration file; synthetic and replay sources bring their own
+  MeasurerConfig measurement;
+  CanIdConfig can;
+  SinkConfig sinks;
+  PipelineSettings pipeline;
+  LoggingConfig logging;
+};
+
+// Parses YAML text; `file` is used in messages. Throws InputError(file, "line N, KEY", message) for
+// unknown keys, wrong types, impossible values and contradictions.
+RutdConfig parse_config(const std::string& yaml_text, const std::string& file);
+// Reads and parses a file; an unreadable file is an InputError too.
+RutdConfig load_config(const std::string& path);
+// The embedded default configuration (the text of config/rutd.yaml).
+const std::string& default_config_text();
+
+}  // namespace rutd

@@ -1,0 +1,43 @@
+#include "daemon/run_summary.hpp"
+
+#include <spdlog/spdlog.h>
+
+#include <string>
+
+namespace rutd {
+
+RunSummary::RunSummary() : start_(std::chrono::steady_clock::now()) {}
+
+void RunSummary::add(const RutMeasurement& m, const MeasurementDiagnostics& d) {
+  ++pairs_;
+  const auto s = static_cast<std::size_t>(m.status);
+  if (s < by_status_.size()) ++by_status_[s];
+  rectify_ms_ += d.rectify_ms;
+  band_ms_ += d.band_ms;
+  disparity_ms_ += d.disparity_ms;
+  dic_ms_ += d.dic_ms;
+  reproject_ms_ += d.reproject_ms;
+  rut_ms_ += d.rut_ms;
+}
+
+void RunSummary::log() const {
+  const double wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
+  const double measure_ms = rectify_ms_ + band_ms_ + disparity_ms_ + dic_ms_ + reproject_ms_ + rut_ms_;
+  std::string statuses;
+  for (std::size_t i = 0; i < by_status_.size(); ++i) {
+    if (by_status_[i] == 0) continue;
+    if (!statuses.empty()) statuses += ", ";
+    statuses += std::string(to_string(static_cast<RutStatus>(i))) + " " + std::to_string(by_status_[i]);
+  }
+  const std::uint64_t failures = pairs_ - by_status_[static_cast<std::size_t>(RutStatus::Ok)];
+  spdlog::info("{} pairs, {} failures ({}); {:.1f} Hz measuring, {:.1f} Hz wall", pairs_, failures,
+               statuses.empty() ? "none" : statuses, measure_ms > 0 ? 1000.0 * pairs_ / measure_ms : 0.0,
+               wall_s > 0 ? pairs_ / wall_s : 0.0);
+  if (pairs_ == 0) return;
+  const double n = static_cast<double>(pairs_);
+  spdlog::info("mean ms per pair: rectify {:.2f}, band {:.2f}, disparity {:.2f}, dic {:.2f}, reproject {:.2f}, rut {:.2f}, total {:.2f}",
+               rectify_ms_ / n, band_ms_ / n, disparity_ms_ / n, dic_ms_ / n, reproject_ms_ / n, rut_ms_ / n,
+               measure_ms / n);
+}
+
+}  // namespace rutd

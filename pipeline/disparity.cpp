@@ -1,0 +1,111 @@
+#include "pipeline/disparity.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <vector>
+
+#include <opencv2/imgproc.hpp>
+
+#include "pipeline/opencv_engines.hpp"
+
+namespace rutd {
+namespace {
+
+constexpr int kMaxCoarseSpan = 128;         // coarse-pass band, coarse px
+constexpr double kMinCoarseValid = 0.05;    // fraction of coarse pixels that must get a disparity
+constexpr double kLowPercentile = 0.02;
+constexpr double kHighPercentile = 0.98;
+constexpr double kMinMarginPx = 4.0;
+constexpr double kSpreadMargin = 0.25;      // of the 2..98 percentile spread
+// Mean |Sobel x| over 5x5 below which a coarse pixel counts as untextured: about 2 grey levels per px
+// (3x3 Sobel reads 8x the gradient). SGBM returns confident-looking values on flat images.
+constexpr double kMinTexture = 16.0;
+
+int round_up16(int n) { return std::max(16, (n + 15) / 16 * 16); }
+
+DisparityBand band_between(int lo, int hi) {  // inclusive disparities, lo >= 0
+  return DisparityBand{lo, round_up16(hi - lo + 1)};
+}
+
+double percentile(std::vector<float>& values, double q) {
+  const auto k = static_cast<std::ptrdiff_t>(q * static_cast<double>(values.size() - 1));
+  std::nth_element(values.begin(), values.begin() + k, values.end());
+  return values[static_cast<std::size_t>(k)];
+}
+
+}  // namespace
+
+std::optional<EngineKind> parse_engine(std::string_view name) {
+  for (EngineKind kind : {EngineKind::Bm, EngineKind::Sgbm, EngineKind::Sgbm3Way, EngineKind::Hh4, EngineKind::Hh}) {
+    if (name == to_string(kind)) return kind;
+  }
+  return std::nullopt;
+}
+
+std::string_view to_string(EngineKind kind) {
+  switch (kind) {
+    case EngineKind::Bm: return "bm";
+    case EngineKind::Sgbm: return "sgbm";
+    case EngineKind::Sgbm3Way: return "sgbm3way";
+    case EngineKind::Hh4: return "hh4";
+    case EngineKind::Hh: return "hh";
+  }
+  return "unknown";
+}
+
+std::unique_ptr<DisparityEngine> make_cpu_engine(EngineKind kind, const EngineParams& params) {
+  if (kind == EngineKind::Bm) return std::make_unique<OpenCvBmEngine>(params);
+  return std::make_unique<OpenCvSgbmEngine>(kind, params);
+}
+
+DisparityBand band_for_range(const StereoGeometry& g, WorkingRange range) {
+  const double d_far = g.disparity_at(std::max(range.near_mm, range.far_mm));
+  const double d_near = g.disparity_at(std::min(range.near_mm, range.far_mm));
+  const int lo = std::max(0, static_cast<int>(std::floor(d_far)));
+  const int hi = std::max(lo, static_cast<int>(std::ceil(d_near)));
+  return band_between(lo, hi);
+}
+
+DisparityBand estimate_band(const cv::Mat& left_strip, const cv::Mat& right_strip, const StereoGeometry& g,
+                            WorkingRange range) {
+  const DisparityBand full = band_for_range(g, range);
+  const int full_hi = full.min_disparity + full.num_disparities - 1;
+  int scale = 1;  // horizontal downsampling: rows are few already, disparity only lives along x
+  while (full.num_disparities / scale > kMaxCoarseSpan) scale *= 2;
+  const int coarse_width = left_strip.cols / scale;
+  const int coarse_lo = full.min_disparity / scale;
+  // Keep a quarter of the coarse strip as overlap between the views, or nothing can match.
+  const int coarse_hi = std::min((full_hi + scale - 1) / scale, coarse_width - coarse_width / 4);
+  if (coarse_hi - coarse_lo < 1 || left_strip.rows < 3) return full;
+
+  cv::Mat left, right, coarse;
+  const cv::Size coarse_size(coarse_width, left_strip.rows);
+  cv::resize(left_strip, left, coarse_size, 0, 0, cv::INTER_AREA);
+  cv::resize(right_strip, right, coarse_size, 0, 0, cv::INTER_AREA);
+  EngineParams params;
+  params.block_size = left_strip.rows >= 5 ? 5 : 3;
+  make_cpu_engine(EngineKind::Sgbm, params)->compute(left, right, band_between(coarse_lo, coarse_hi), coarse);
+
+  cv::Mat texture;
+  cv::Sobel(left, texture, CV_32F, 1, 0, 3);
+  texture = cv::abs(texture);
+  cv::blur(texture, texture, cv::Size(5, 5));
+  std::vector<float> found;
+  found.reserve(coarse.total());
+  for (int r = 0; r < coarse.rows; ++r) {
+    const float* row = coarse.ptr<float>(r);
+    const float* tex = texture.ptr<float>(r);
+    for (int x = 0; x < coarse.cols; ++x) {
+      if (std::isfinite(row[x]) && tex[x] >= kMinTexture) found.push_back(row[x] * static_cast<float>(scale));
+    }
+  }
+  if (static_cast<double>(found.size()) < kMinCoarseValid * static_cast<double>(coarse.total())) return full;
+  const double lo = percentile(found, kLowPercentile);
+  const double hi = percentile(found, kHighPercentile);
+  const double margin = std::max({kMinMarginPx, 2.0 * scale, kSpreadMargin * (hi - lo)});
+  const int band_lo = std::clamp(static_cast<int>(std::floor(lo - margin)), full.min_disparity, full_hi);
+  const int band_hi = std::clamp(static_cast<int>(std::ceil(hi + margin)), band_lo, full_hi);
+  return band_between(band_lo, band_hi);
+}
+
+}  // namespace rutd

@@ -1,0 +1,193 @@
+#include "pipeline/stereo_geometry.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include <opencv2/calib3d.hpp>
+#include <opencv2/imgproc.hpp>
+
+namespace rutd {
+namespace {
+
+struct Rectification {
+  cv::Mat R1, R2, P1, P2, Q;
+};
+
+Rectification stereo_rectify(const StereoCalibration& c, double alpha) {
+  Rectification r;
+  cv::stereoRectify(cv::Mat(c.M1), c.D1, cv::Mat(c.M2), c.D2, c.image_size, cv::Mat(c.R), cv::Mat(c.T),
+                    r.R1, r.R2, r.P1, r.P2, r.Q, cv::CALIB_ZERO_DISPARITY, alpha, c.image_size);
+  return r;
+}
+
+// Maps for the strip rows only: the projection's principal point moves up by row0, so row 0 of the
+// map is rectified row row0.
+void strip_maps(const cv::Matx33d& M, const cv::Mat& D, const cv::Mat& R, const cv::Mat& P, StripRoi roi,
+                int width, int map1_type, cv::Mat& map1, cv::Mat& map2) {
+  cv::Mat strip_p = P.colRange(0, 3).clone();
+  strip_p.at<double>(1, 2) -= roi.row0;
+  cv::initUndistortRectifyMap(cv::Mat(M), D, R, strip_p, cv::Size(width, roi.rows), map1_type, map1, map2);
+}
+
+// True when every map position lies within half a pixel of the raw image (BORDER_REPLICATE covers
+// the half pixel), i.e. the strip shows no border.
+bool maps_inside(const cv::Mat& map_x, const cv::Mat& map_y, cv::Size raw) {
+  double min_x = 0, max_x = 0, min_y = 0, max_y = 0;
+  cv::minMaxLoc(map_x, &min_x, &max_x);
+  cv::minMaxLoc(map_y, &min_y, &max_y);
+  constexpr double kSlack = 0.5;
+  return min_x >= -kSlack && max_x <= raw.width - 1 + kSlack && min_y >= -kSlack &&
+         max_y <= raw.height - 1 + kSlack;
+}
+
+bool strip_inside(const StereoCalibration& c, const Rectification& r, StripRoi roi) {
+  cv::Mat mx, my;
+  strip_maps(c.M1, c.D1, r.R1, r.P1, roi, c.image_size.width, CV_32FC1, mx, my);
+  if (!maps_inside(mx, my, c.image_size)) return false;
+  strip_maps(c.M2, c.D2, r.R2, r.P2, roi, c.image_size.width, CV_32FC1, mx, my);
+  return maps_inside(mx, my, c.image_size);
+}
+
+// Largest alpha in [0, 1] whose strip has no border; alpha 0 when even that fails by more than the
+// slack (it keeps only valid pixels by construction, up to stereoRectify's sampling of the border).
+double choose_alpha(const StereoCalibration& c, StripRoi roi) {
+  if (strip_inside(c, stereo_rectify(c, 1.0), roi)) return 1.0;
+  double lo = 0.0, hi = 1.0;
+  for (int i = 0; i < 12; ++i) {
+    const double mid = 0.5 * (lo + hi);
+    if (strip_inside(c, stereo_rectify(c, mid), roi)) {
+      lo = mid;
+    } else {
+      hi = mid;
+    }
+  }
+  return lo;
+}
+
+// Bilinear resampling of `raw` at the float positions of `map` (CV_32FC2) with exact weights, into
+// CV_32F. OpenCV's remap quantises positions to 1/32 px, a disparity error of up to 1/32 px: as large
+// as the whole error budget of the sub-pixel refinement. Edge pixels are replicated.
+template <typename Pixel>
+void remap_bilinear(const cv::Mat& raw, const cv::Mat& map, cv::Mat& out) {
+  out.create(map.size(), CV_32FC1);
+  const int max_x = raw.cols - 1, max_y = raw.rows - 1;
+  for (int r = 0; r < map.rows; ++r) {
+    const cv::Vec2f* m = map.ptr<cv::Vec2f>(r);
+    float* o = out.ptr<float>(r);
+    for (int c = 0; c < map.cols; ++c) {
+      const float x = std::clamp(m[c][0], 0.0f, static_cast<float>(max_x));
+      const float y = std::clamp(m[c][1], 0.0f, static_cast<float>(max_y));
+      const int x0 = std::min(static_cast<int>(x), max_x - 1);
+      const int y0 = std::min(static_cast<int>(y), max_y - 1);
+      const float fx = x - static_cast<float>(x0), fy = y - static_cast<float>(y0);
+      const Pixel* p0 = raw.ptr<Pixel>(y0) + x0;
+      const Pixel* p1 = raw.ptr<Pixel>(y0 + 1) + x0;
+      const float top = p0[0] + fx * (static_cast<float>(p0[1]) - p0[0]);
+      const float bottom = p1[0] + fx * (static_cast<float>(p1[1]) - p1[0]);
+      o[c] = top + fy * (bottom - top);
+    }
+  }
+}
+
+void remap_strip(const cv::Mat& raw, const cv::Mat& map, cv::Mat& out) {
+  if (raw.type() == CV_8UC1) {
+    remap_bilinear<std::uint8_t>(raw, map, out);
+  } else {
+    remap_bilinear<std::uint16_t>(raw, map, out);
+  }
+}
+
+}  // namespace
+
+StereoGeometry::StereoGeometry(const StereoCalibration& calibration, StripRoi roi)
+    : raw_size_(calibration.image_size), rectified_size_(calibration.image_size) {
+  if (roi.rows == 0 && roi.row0 == 0) roi.rows = rectified_size_.height;
+  if (roi.row0 < 0 || roi.rows <= 0 || roi.row0 + roi.rows > rectified_size_.height) {
+    throw std::invalid_argument("strip rows " + std::to_string(roi.row0) + ".." +
+                                std::to_string(roi.row0 + roi.rows) + " outside the rectified image of " +
+                                std::to_string(rectified_size_.height) + " rows");
+  }
+  roi_ = roi;
+  alpha_ = choose_alpha(calibration, roi_);
+  const Rectification r = stereo_rectify(calibration, alpha_);
+  R1_ = cv::Matx33d(r.R1);
+  R2_ = cv::Matx33d(r.R2);
+  P1_ = cv::Matx34d(r.P1);
+  P2_ = cv::Matx34d(r.P2);
+  Q_ = cv::Matx44d(r.Q);
+  focal_px_ = P1_(0, 0);
+  baseline_mm_ = -P2_(0, 3) / P2_(0, 0);
+  if (std::abs(P2_(1, 3)) > 1e-9 * std::abs(P2_(0, 3)) || !(baseline_mm_ > 0.0)) {
+    throw std::invalid_argument("the calibration is not a left/right pair: after rectification the right "
+                                "camera must lie at +X of the left one (T.x < 0)");
+  }
+  cv::Mat x, y;
+  strip_maps(calibration.M1, calibration.D1, r.R1, r.P1, roi_, rectified_size_.width, CV_32FC1, x, y);
+  cv::merge(std::vector<cv::Mat>{x, y}, left_map_);
+  strip_maps(calibration.M2, calibration.D2, r.R2, r.P2, roi_, rectified_size_.width, CV_32FC1, x, y);
+  cv::merge(std::vector<cv::Mat>{x, y}, right_map_);
+}
+
+double StereoGeometry::disparity_at(double z_mm) const {
+  // Z = Q23 / (Q32 d + Q33)  =>  d = (Q23 / Z - Q33) / Q32
+  return (Q_(2, 3) / z_mm - Q_(3, 3)) / Q_(3, 2);
+}
+
+double StereoGeometry::distance_at(double disparity_px) const {
+  return Q_(2, 3) / (Q_(3, 2) * disparity_px + Q_(3, 3));
+}
+
+void StereoGeometry::rectify(const cv::Mat& left_raw, const cv::Mat& right_raw, cv::Mat& left_strip,
+                             cv::Mat& right_strip) const {
+  const int type = left_raw.type();
+  if (left_raw.size() != raw_size_ || right_raw.size() != raw_size_ || right_raw.type() != type ||
+      (type != CV_8UC1 && type != CV_16UC1)) {
+    throw std::invalid_argument("rectify: raw images must both be CV_8UC1 or CV_16UC1 of the calibration size");
+  }
+  // One scratch pair per thread keeps this const method thread-safe and allocation-free after the first
+  // frame of each thread.
+  thread_local cv::Mat left_f, right_f;
+  remap_strip(left_raw, left_map_, left_f);
+  remap_strip(right_raw, right_map_, right_f);
+  double scale = 1.0;
+  if (type == CV_16UC1) {
+    double max_left = 0, max_right = 0;
+    cv::minMaxLoc(left_f, nullptr, &max_left);
+    cv::minMaxLoc(right_f, nullptr, &max_right);
+    const double brightest = std::max(max_left, max_right);
+    if (brightest > 255.0) scale = 255.0 / brightest;
+  }
+  left_f.convertTo(left_strip, CV_8U, scale);
+  right_f.convertTo(right_strip, CV_8U, scale);
+}
+
+void StereoGeometry::reproject(const cv::Mat& disparity, cv::Mat& xyz) const {
+  CV_Assert(disparity.type() == CV_32FC1);
+  xyz.create(disparity.size(), CV_32FC3);
+  constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
+  const cv::Matx44d& q = Q_;
+  for (int r = 0; r < disparity.rows; ++r) {
+    const float* d_row = disparity.ptr<float>(r);
+    cv::Vec3f* out = xyz.ptr<cv::Vec3f>(r);
+    const double y = roi_.row0 + r;
+    for (int x = 0; x < disparity.cols; ++x) {
+      const double d = d_row[x];
+      const double w = q(3, 0) * x + q(3, 1) * y + q(3, 2) * d + q(3, 3);
+      if (!std::isfinite(d) || d <= 0.0 || !(w > 0.0)) {
+        out[x] = cv::Vec3f(kNaN, kNaN, kNaN);
+        continue;
+      }
+      const double px = q(0, 0) * x + q(0, 1) * y + q(0, 2) * d + q(0, 3);
+      const double py = q(1, 0) * x + q(1, 1) * y + q(1, 2) * d + q(1, 3);
+      const double pz = q(2, 0) * x + q(2, 1) * y + q(2, 2) * d + q(2, 3);
+      out[x] = cv::Vec3f(static_cast<float>(px / w), static_cast<float>(py / w), static_cast<float>(pz / w));
+    }
+  }
+}
+
+}  // namespace rutd

@@ -1,0 +1,104 @@
+// The configuration file: the embedded default loads, and every kind of bad input gets one error that
+// names the file, the line and the key.
+#include <gtest/gtest.h>
+
+#include "daemon/config.hpp"
+#include "drivers/input_error.hpp"
+#include "test_support.hpp"
+
+#include <fstream>
+
+namespace rutd {
+namespace {
+
+// Expects parse_config to throw an InputError whose message contains every one of `parts`.
+void expect_error(const std::string& yaml, std::initializer_list<std::string> parts) {
+  try {
+    parse_config(yaml, "test.yaml");
+    ADD_FAILURE() << "no error for:\n" << yaml;
+  } catch (const InputError& e) {
+    const std::string what = e.what();
+    EXPECT_EQ(e.file(), "test.yaml");
+    for (const auto& part : parts) EXPECT_NE(what.find(part), std::string::npos) << "'" << part << "' not in: " << what;
+  }
+}
+
+TEST(Config, EmbeddedDefaultIsTheSyntheticBenchOnStdout) {
+  const RutdConfig c = parse_config(default_config_text(), "(embedded default)");
+  EXPECT_EQ(c.source, SourceKind::Synthetic);
+  EXPECT_EQ(c.sinks.candump, "-");
+  EXPECT_TRUE(c.sinks.socketcan.empty());
+  EXPECT_TRUE(c.measurement.dic);
+  EXPECT_TRUE(c.can.extended);
+  EXPECT_EQ(c.can.source_address, 0xA0);
+  EXPECT_EQ(c.synthetic.rig.image_size, cv::Size(640, 480));
+}
+
+TEST(Config, ShippedFileEqualsEmbeddedDefault) {
+  std::ifstream in(std::string(RUTD_SOURCE_DIR) + "/config/rutd.yaml");
+  const std::string text((std::istreambuf_iterator<char>(in)), {});
+  EXPECT_EQ(text, default_config_text());
+}
+
+TEST(Config, ValuesAreRead) {
+  const RutdConfig c = parse_config(
+      "source:\n  type: replay\n  replay:\n    dir: /data/run1\n    loop: true\n"
+      "measurement:\n  engine: hh\n  dic: false\n  strip_rows: 32\n"
+      "can:\n  id_format: 11bit\n  source_address: 0x42\n"
+      "rut:\n  min_width_mm: 100\n  max_width_mm: 300\n"
+      "pipeline:\n  cpu_affinity: [0, 1]\n",
+      "test.yaml");
+  EXPECT_EQ(c.source, SourceKind::Replay);
+  EXPECT_EQ(c.replay.dir, "/data/run1");
+  EXPECT_TRUE(c.replay.loop);
+  EXPECT_EQ(c.measurement.engine, EngineKind::Hh);
+  EXPECT_FALSE(c.measurement.dic);
+  EXPECT_EQ(c.measurement.strip.rows, 32);
+  EXPECT_EQ(c.measurement.strip.row0, -1);
+  EXPECT_FALSE(c.can.extended);
+  EXPECT_EQ(c.can.source_address, 0x42);
+  EXPECT_EQ(c.measurement.rut.min_rut_width_mm, 100);
+  EXPECT_EQ(c.pipeline.cpu_affinity, (std::vector<int>{0, 1}));
+}
+
+TEST(Config, UnknownKeyIsNamedWithItsLine) {
+  expect_error("measurement:\n  engine: sgbm\n  engnie: hh\n", {"test.yaml", "line 3", "measurement.engnie", "unknown key"});
+  expect_error("sorce:\n  type: synthetic\n", {"line 1", "sorce", "unknown key"});
+}
+
+TEST(Config, WrongTypeIsNamed) {
+  expect_error("measurement:\n  dic: maybe\n", {"line 2", "measurement.dic", "true or false", "maybe"});
+  expect_error("pipeline:\n  max_frame_age_ms: soon\n", {"line 2", "pipeline.max_frame_age_ms", "a number"});
+  expect_error("measurement: [1, 2]\n", {"measurement", "mapping"});
+  expect_error("pipeline:\n  cpu_affinity: [0, x]\n", {"pipeline.cpu_affinity", "integer"});
+}
+
+TEST(Config, ImpossibleValuesAreNamed) {
+  expect_error("measurement:\n  near_mm: 900\n  far_mm: 400\n", {"measurement.near_mm", "smaller than far_mm"});
+  expect_error("measurement:\n  engine: cuda9\n", {"line 2", "measurement.engine", "cuda9"});
+  expect_error("rut:\n  min_width_mm: 500\n  max_width_mm: 300\n", {"rut.min_width_mm"});
+  expect_error("can:\n  source_address: 0x1FF\n", {"line 2", "can.source_address"});
+  expect_error("can:\n  priority: 9\n", {"can.priority"});
+  expect_error("source:\n  synthetic:\n    size: 640by480\n", {"line 3", "source.synthetic.size", "640by480"});
+  expect_error("source:\n  synthetic:\n    fps: -3\n", {"source.synthetic.fps", "between"});
+  expect_error("logging:\n  level: chatty\n", {"logging.level", "chatty"});
+}
+
+TEST(Config, MissingCalibrationAndFolderAreNamed) {
+  expect_error("source:\n  type: aravis\n", {"calibration", "calibration file"});
+  expect_error("source:\n  type: replay\n", {"source.replay.dir", "recording folder"});
+  expect_error("source:\n  type: webcam\n", {"line 2", "source.type", "webcam"});
+}
+
+TEST(Config, BrokenYamlAndMissingFileAreNamed) {
+  expect_error("measurement:\n  engine: [sgbm\n", {"test.yaml", "line", "not valid YAML"});
+  try {
+    load_config("/nonexistent/rutd.yaml");
+    FAIL();
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("/nonexistent/rutd.yaml"), std::string::npos);
+  }
+}
+
+}  // namespace
+}  // namespace rutd
