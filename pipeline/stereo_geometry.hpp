@@ -44,8 +44,8 @@ class StereoGeometry {
   double distance_at(double disparity_px) const;
 
   // Remaps the strip rows of both raw images (CV_8UC1 or CV_16UC1, size = calibration image size) into
-  // CV_8UC1 strips of rectified width x roi().rows, bilinear interpolation at exact (float) positions:
-  // OpenCV's remap would quantise them to 1/32 px, up to 1/32 px of disparity error. 16-bit images are scaled to
+  // CV_8UC1 strips of rectified width x roi().rows, resampled at exact (float) positions with a cubic
+  // B-spline smoothing kernel (why: stereo_geometry.cpp, remap_bspline). 16-bit images are scaled to
   // 8 bits by one factor common to both strips, 255 / (brightest strip pixel), when that pixel exceeds
   // 255 (so 10/12/16-bit sensors all use the full 8-bit range); otherwise copied unscaled. Reuses the
   // output buffers when they already fit. Throws std::invalid_argument for a wrong size or type.
