@@ -80,7 +80,7 @@ bool invert_symmetric3(const double h[3][3], double inv[3][3]) {
 }
 
 bool prepare_reference(const cv::Mat& left, const cv::Mat& left_dx, int x, int y, const Window& w,
-                       const DicParams& p, DicWorkspace& ws, Reference& ref) {
+                       const DicParams& p, DicScratch& ws, Reference& ref) {
   double sum = 0.0;
   int i = 0;
   for (int yy = w.y0; yy <= w.y1; ++yy) {
@@ -131,7 +131,7 @@ struct Warp {
 // weights and sums run in separate loops over ws.pos / ws.t so the compiler vectorises all but the
 // coefficient gather.
 bool sample_target(const cv::Mat& right_coeff, int x, int y, const Window& w, const Warp& wp, int cols,
-                   DicWorkspace& ws) {
+                   DicScratch& ws) {
   const float a = static_cast<float>(wp.a);
   const float last = static_cast<float>(cols - 1);
   const int width = w.x1 - w.x0 + 1;
@@ -180,7 +180,7 @@ struct PixelResult {
 // Inverse-compositional Gauss-Newton on the ZNSSD criterion (Pan et al., 2013) from disparity d0.
 // `start` is the warp to begin from (the previous pixel's, moved here, or the engine's shift).
 bool refine_pixel(const cv::Mat& left, const cv::Mat& right_coeff, const cv::Mat& left_dx, int x, int y, float d0,
-                  const Warp& start, const DicParams& p, DicWorkspace& ws, PixelResult& out) {
+                  const Warp& start, const DicParams& p, DicScratch& ws, PixelResult& out) {
   const int h = p.half_window;
   const Window w{std::max(0, x - h), std::min(left.cols - 1, x + h), std::max(0, y - h),
                  std::min(left.rows - 1, y + h)};
@@ -235,28 +235,20 @@ bool refine_pixel(const cv::Mat& left, const cv::Mat& right_coeff, const cv::Mat
   return false;
 }
 
-}  // namespace
-
-DicStats refine_disparity_dic(const cv::Mat& left_strip, const cv::Mat& right_strip, cv::Mat& disparity,
-                              const DicParams& params, DicWorkspace& ws) {
-  CV_Assert(left_strip.type() == CV_8UC1 && right_strip.type() == CV_8UC1 && disparity.type() == CV_32FC1);
-  CV_Assert(left_strip.size() == right_strip.size() && disparity.size() == left_strip.size());
-  CV_Assert(left_strip.cols >= 4 && params.half_window >= 1 && params.step >= 1);
-  prepare_splines(left_strip, right_strip, ws);
-  const auto window = static_cast<std::size_t>((2 * params.half_window + 1) * (2 * params.half_window + 1));
-  for (auto* v : {&ws.f, &ws.sd_x, &ws.sd_xi, &ws.sd_eta, &ws.g, &ws.pos, &ws.taps[0], &ws.taps[1], &ws.taps[2],
-                  &ws.taps[3]}) {
-    if (v->size() < window) v->resize(window);
-  }
-  if (ws.index.size() < window) ws.index.resize(window);
-  DicStats stats;
-  long iterations = 0;
-  for (int y = 0; y < disparity.rows; ++y) {
+// Refines rows [row_begin, row_end) of the grid with one thread's scratch.
+void refine_rows(const cv::Mat& left_strip, const DicWorkspace& ws, cv::Mat& disparity, const DicParams& params,
+                 int row_begin, int row_end, DicScratch& scratch) {
+  const int row_step = params.row_step > 0 ? params.row_step : params.step;
+  for (int y = row_begin; y < row_end; ++y) {
     float* d = disparity.ptr<float>(y);
+    if (y % row_step != 0) {
+      std::fill(d, d + disparity.cols, kNaN);
+      continue;
+    }
     bool have_previous = false;
     Warp previous;  // converged warp of pixel x - step, moved to x
     for (int x = 0; x < disparity.cols; ++x) {
-      if (y % params.step != 0 || x % params.step != 0) {
+      if (x % params.step != 0) {
         d[x] = kNaN;
         continue;
       }
@@ -269,18 +261,67 @@ DicStats refine_disparity_dic(const cv::Mat& left_strip, const cv::Mat& right_st
       Warp start{1.0, 0.0, -static_cast<double>(d0)};
       if (have_previous && std::abs(-previous.c - d0) < kWarmStartAgreementPx) start = previous;
       PixelResult result;
-      have_previous = refine_pixel(left_strip, ws.right_coeff, ws.left_dx, x, y, d0, start, params, ws, result);
+      have_previous = refine_pixel(left_strip, ws.right_coeff, ws.left_dx, x, y, d0, start, params, scratch, result);
       if (have_previous) {
         d[x] = result.disparity;
-        ++stats.refined;
-        iterations += result.iterations;
+        ++scratch.stats.refined;
+        scratch.iterations += result.iterations;
         previous = result.warp;
         previous.c += (previous.a - 1.0) * params.step;
       } else {
         d[x] = kNaN;
-        ++stats.rejected;
+        ++scratch.stats.rejected;
       }
     }
+  }
+}
+
+}  // namespace
+
+DicStats refine_disparity_dic(const cv::Mat& left_strip, const cv::Mat& right_strip, cv::Mat& disparity,
+                              const DicParams& params, DicWorkspace& ws) {
+  CV_Assert(left_strip.type() == CV_8UC1 && right_strip.type() == CV_8UC1 && disparity.type() == CV_32FC1);
+  CV_Assert(left_strip.size() == right_strip.size() && disparity.size() == left_strip.size());
+  CV_Assert(left_strip.cols >= 4 && params.half_window >= 1 && params.step >= 1 && params.row_step >= 0);
+  prepare_splines(left_strip, right_strip, ws);
+  const int row_begin = std::clamp(params.row_begin, 0, disparity.rows);
+  const int row_end = params.row_end < 0 ? disparity.rows : std::clamp(params.row_end, row_begin, disparity.rows);
+  disparity.rowRange(0, row_begin).setTo(kNaN);
+  disparity.rowRange(row_end, disparity.rows).setTo(kNaN);
+
+  const int stripes = params.parallel ? std::max(1, std::min(cv::getNumThreads(), row_end - row_begin)) : 1;
+  if (ws.scratch.size() < static_cast<std::size_t>(stripes)) ws.scratch.resize(static_cast<std::size_t>(stripes));
+  const auto window = static_cast<std::size_t>((2 * params.half_window + 1) * (2 * params.half_window + 1));
+  for (int s = 0; s < stripes; ++s) {
+    DicScratch& sc = ws.scratch[static_cast<std::size_t>(s)];
+    for (auto* v : {&sc.f, &sc.sd_x, &sc.sd_xi, &sc.sd_eta, &sc.g, &sc.pos, &sc.taps[0], &sc.taps[1], &sc.taps[2],
+                    &sc.taps[3]}) {
+      if (v->size() < window) v->resize(window);
+    }
+    if (sc.index.size() < window) sc.index.resize(window);
+    sc.stats = DicStats{};
+    sc.iterations = 0;
+  }
+  // Interleaved rows per stripe would share cache lines of `disparity`; contiguous blocks do not.
+  const auto run = [&](const cv::Range& range) {
+    for (int s = range.start; s < range.end; ++s) {
+      const int a = row_begin + (row_end - row_begin) * s / stripes;
+      const int b = row_begin + (row_end - row_begin) * (s + 1) / stripes;
+      refine_rows(left_strip, ws, disparity, params, a, b, ws.scratch[static_cast<std::size_t>(s)]);
+    }
+  };
+  if (stripes > 1) {
+    cv::parallel_for_(cv::Range(0, stripes), run, stripes);
+  } else {
+    run(cv::Range(0, 1));
+  }
+  DicStats stats;
+  long iterations = 0;
+  for (int s = 0; s < stripes; ++s) {
+    const DicScratch& sc = ws.scratch[static_cast<std::size_t>(s)];
+    stats.refined += sc.stats.refined;
+    stats.rejected += sc.stats.rejected;
+    iterations += sc.iterations;
   }
   stats.mean_iterations = stats.refined > 0 ? static_cast<double>(iterations) / stats.refined : 0.0;
   return stats;

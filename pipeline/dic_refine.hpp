@@ -21,7 +21,11 @@ struct DicParams {
   int half_window = 5;         // px; the window is (2h+1)^2, clipped to the strip at its edges
   int max_iterations = 20;     // a pixel that has not converged by then is rejected
   double tolerance_px = 1e-3;  // converged when the warp update moves the window's corners less, px
-  int step = 1;                // refine pixels with x % step == 0 and row % step == 0; others become NaN
+  int step = 1;                // refine pixels with x % step == 0 and row % row_step == 0; others become NaN
+  int row_step = 0;            // 0: same as step
+  int row_begin = 0;           // refine rows [row_begin, row_end) only; others become NaN
+  int row_end = -1;            // -1: to the last row
+  bool parallel = true;        // split rows across OpenCV's worker threads
   bool first_order = true;     // fit ux, uy (disparity gradients); false: pure shift
   double max_shift_px = 2.0;   // reject when |refined - initial disparity| exceeds this, px
   double max_gradient = 0.5;   // reject when |ux| or |uy| exceed this, px/px (warp degenerates)
@@ -36,12 +40,8 @@ struct DicStats {
   double mean_iterations = 0;   // Gauss-Newton iterations per refined pixel
 };
 
-// Scratch reused between frames; grows to the largest strip and window seen, then never allocates.
-// One per thread.
-struct DicWorkspace {
-  cv::Mat left_coeff;   // CV_32F rows x (cols + 4): cubic B-spline coefficients, 2 mirrored each side
-  cv::Mat right_coeff;  // same for the right strip
-  cv::Mat left_dx;      // CV_32F rows x cols: x derivative of the left interpolant at the pixels
+// The per-window buffers of one thread.
+struct DicScratch {
   std::vector<float> f;       // window of the left strip, mean removed
   std::vector<float> sd_x;    // steepest-descent images: fx, fx * xi, fx * eta
   std::vector<float> sd_xi;
@@ -50,7 +50,18 @@ struct DicWorkspace {
   std::vector<float> pos;     // per window column: fractional sample position
   std::vector<int> index;     // per window column: whole sample position
   std::vector<float> taps[4]; // per window column: the 4 coefficients the cubic kernel reads
+  DicStats stats;             // of this thread's rows in the current call
+  long iterations = 0;
+};
+
+// Scratch reused between frames; grows to the largest strip, window and thread count seen, then never
+// allocates. One per calling thread.
+struct DicWorkspace {
+  cv::Mat left_coeff;   // CV_32F rows x (cols + 4): cubic B-spline coefficients, 2 mirrored each side
+  cv::Mat right_coeff;  // same for the right strip
+  cv::Mat left_dx;      // CV_32F rows x cols: x derivative of the left interpolant at the pixels
   std::vector<double> row_buffer;  // prefilter scratch
+  std::vector<DicScratch> scratch;  // one per row stripe
 };
 
 // Refines `disparity` (CV_32FC1, size of the strips, px, NaN = invalid) in place. left/right: rectified

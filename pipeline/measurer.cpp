@@ -86,7 +86,11 @@ void StereoMeasurer::match(FrameWork& w, MatchContext& context) const {
 
   if (config_.dic) {
     t0 = Clock::now();
-    w.diag.dic = refine_disparity_dic(w.left_strip, w.right_strip, w.disparity, config_.dic_params, context.dic);
+    // Only the measured rows are refined; the margin rows were matched as context for the windows.
+    DicParams dic = config_.dic_params;
+    dic.row_begin = config_.strip.row0 - geometry_.roi().row0;
+    dic.row_end = dic.row_begin + config_.strip.rows;
+    w.diag.dic = refine_disparity_dic(w.left_strip, w.right_strip, w.disparity, dic, context.dic);
     w.diag.dic_ms = ms_since(t0);
   }
 }

