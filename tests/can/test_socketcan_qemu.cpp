@@ -1,0 +1,281 @@
+// SocketCAN on a real Linux kernel: boots Debian's kernel under qemu (tests/can/qemu/run-guest.sh),
+// with the host's root shared read-only, and runs rutd's programs inside it on a virtual CAN bus.
+// The truth is outside rutd: can-utils' candump records the bus, and the DBC decoder
+// (tests/can/decode_candump.py, canmatrix) must decode what it recorded without CRC or counter errors.
+//
+// The kernel and the initramfs are cached in <build>/can-qemu; the first run downloads the kernel
+// package (about 70 MB). Skips where qemu, the kernel, busybox-static or the decoder cannot be had.
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+#include <unistd.h>
+#include <x86intrin.h>
+
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <optional>
+#include <sstream>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "drivers/candump_log.hpp"
+
+namespace rutd {
+namespace {
+
+namespace fs = std::filesystem;
+constexpr const char* kPython = "/usr/bin/python3";
+constexpr int kBootTimeoutS = 150;  // rutd's own run takes 30-60 s under emulation
+
+fs::path bin_dir() { return fs::path(RUTD_BINARY).parent_path(); }
+fs::path cache_dir() { return bin_dir().parent_path() / "can-qemu"; }
+fs::path qemu_dir() { return fs::path(RUTD_SOURCE_DIR) / "tests" / "can" / "qemu"; }
+std::string quoted(const fs::path& p) { return "'" + p.string() + "'"; }
+
+int run_shell(const std::string& command) {
+  const int status = std::system(command.c_str());
+  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
+std::string read_text(const fs::path& p) {
+  std::ifstream in(p);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+std::vector<std::string> lines_of(const std::string& text) {
+  std::vector<std::string> lines;
+  std::istringstream in(text);
+  for (std::string line; std::getline(in, line);) {
+    if (!line.empty() && line.back() == '\r') line.pop_back();  // the serial console writes CR LF
+    lines.push_back(line);
+  }
+  return lines;
+}
+
+// The host's TSC rate in kHz, measured against CLOCK_MONOTONIC; the guest kernel gets it as
+// tsc_early_khz= and then skips its own calibration, which can hang under emulation.
+long measure_tsc_khz() {
+  using clock = std::chrono::steady_clock;
+  const auto t0 = clock::now();
+  const unsigned long long c0 = __rdtsc();
+  std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  const unsigned long long c1 = __rdtsc();
+  const auto t1 = clock::now();
+  const double ns = std::chrono::duration<double, std::nano>(t1 - t0).count();
+  return static_cast<long>(static_cast<double>(c1 - c0) / ns * 1e6);
+}
+
+struct GuestRun {
+  int status = -1;      // run-guest.sh's exit status (77: cannot run here)
+  std::string console;  // the guest's serial console
+  std::string error;    // run-guest.sh's stderr
+  double wall_s = 0;
+};
+
+// Boots the guest once and runs `job` (shell script text) in it.
+GuestRun run_guest(const std::string& job) {
+  const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
+  const fs::path jobs = cache_dir() / "jobs";
+  fs::create_directories(jobs);
+  // The job lives in the build tree: the guest sees the host's files there, but not the host's /tmp.
+  const fs::path job_file = jobs / (std::string(info->name()) + "-" + std::to_string(::getpid()) + ".sh");
+  std::ofstream(job_file) << job;
+  const fs::path console = jobs / (job_file.stem().string() + ".console");
+  const fs::path error = jobs / (job_file.stem().string() + ".err");
+
+  static const long tsc_khz = measure_tsc_khz();
+  const std::string command = "RUTD_TSC_KHZ=" + std::to_string(tsc_khz) + " " +
+                              quoted(qemu_dir() / "run-guest.sh") + " " + quoted(cache_dir()) + " " +
+                              quoted(job_file) + " " + std::to_string(kBootTimeoutS) + " >" + quoted(console) +
+                              " 2>" + quoted(error);
+  GuestRun run;
+  const auto t0 = std::chrono::steady_clock::now();
+  run.status = run_shell(command);
+  run.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  run.console = read_text(console);
+  run.error = read_text(error);
+  std::printf("[ qemu     ] boot + job + power-off: %.2f s wall (TSC %ld kHz)\n", run.wall_s, tsc_khz);
+  fs::remove(job_file);
+  fs::remove(console);
+  fs::remove(error);
+  return run;
+}
+
+// The status the job reported, or nothing if the guest did not get that far.
+std::optional<std::string> job_exit(const std::string& console) {
+  for (const std::string& line : lines_of(console)) {
+    if (line.rfind("RUTD-GUEST-EXIT=", 0) == 0) return line.substr(16);
+  }
+  return std::nullopt;
+}
+
+// The lines between "----- BEGIN name -----" and "----- END name -----" (guest-candump.sh).
+std::optional<std::vector<std::string>> block(const std::string& console, const std::string& name) {
+  std::vector<std::string> out;
+  bool inside = false;
+  for (const std::string& line : lines_of(console)) {
+    if (line == "----- BEGIN " + name + " -----") {
+      inside = true;
+    } else if (line == "----- END " + name + " -----") {
+      return out;
+    } else if (inside) {
+      out.push_back(line);
+    }
+  }
+  return std::nullopt;
+}
+
+std::string value_after(const std::string& console, const std::string& key) {
+  for (const std::string& line : lines_of(console)) {
+    if (line.rfind(key, 0) == 0) return line.substr(key.size());
+  }
+  return {};
+}
+
+std::string decoder_unavailable() {
+  if (!fs::exists(kPython)) return std::string(kPython) + " is needed (with python3-canmatrix)";
+  if (run_shell(std::string(kPython) + " -c 'import canmatrix.formats' >/dev/null 2>&1") != 0) {
+    return std::string("canmatrix for ") + kPython + " is needed (Debian package python3-canmatrix)";
+  }
+  return {};
+}
+
+// Fails the test (and returns false) unless the guest ran the job to its end.
+::testing::AssertionResult guest_completed(const GuestRun& run) {
+  if (run.status != 0) {
+    return ::testing::AssertionFailure() << "run-guest.sh exited with " << run.status << ": " << run.error
+                                         << "\nconsole:\n" << run.console;
+  }
+  if (!job_exit(run.console)) {
+    return ::testing::AssertionFailure() << "the guest never finished its job\nconsole:\n" << run.console;
+  }
+  return ::testing::AssertionSuccess();
+}
+
+class GuestKernel : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    if (!fs::exists(qemu_dir() / "run-guest.sh")) FAIL() << "missing " << qemu_dir() / "run-guest.sh";
+  }
+  // Boots; skips the test if the guest cannot be had here.
+  GuestRun boot(const std::string& job) {
+    GuestRun run = run_guest(job);
+    if (run.status == 77) skipped_ = "cannot boot the test guest here: " + run.error;
+    return run;
+  }
+  std::string skipped_;
+};
+
+#define SKIP_IF_NO_GUEST()                       \
+  do {                                           \
+    if (!skipped_.empty()) GTEST_SKIP() << skipped_; \
+  } while (false)
+
+// Checks guest-candump.sh's report: the sender succeeded, candump saw exactly the frames the sender
+// logged as sent (same order, identifiers, lengths and data), then the end marker; and the DBC decoder
+// decodes candump's record without problems. `min_frames` guards against a sender that sent nothing.
+void check_candump_matches_sent(const std::string& console, std::size_t min_frames) {
+  EXPECT_EQ(value_after(console, "RUTD-SENDER-EXIT="), "0") << console;
+  const auto seen_lines = block(console, "candump.log");
+  const auto sent_lines = block(console, "sent.log");
+  ASSERT_TRUE(seen_lines && sent_lines) << "no candump.log or sent.log block\n" << console;
+
+  std::vector<CanFrame> seen;
+  std::vector<CanFrame> sent;
+  for (const auto& line : *seen_lines) {
+    const auto parsed = parse_candump_line(line);
+    ASSERT_TRUE(parsed) << "candump wrote an unexpected line: " << line;
+    seen.push_back(parsed->first);
+  }
+  for (const auto& line : *sent_lines) {
+    const auto parsed = parse_candump_line(line);
+    ASSERT_TRUE(parsed) << "the sender logged an unreadable line: " << line;
+    sent.push_back(parsed->first);
+  }
+  ASSERT_FALSE(seen.empty());
+  const CanFrame end_marker{0x7FF, false, 0, {}};
+  EXPECT_EQ(seen.back(), end_marker) << "candump's record does not end with the end marker";
+  seen.pop_back();
+
+  EXPECT_GE(sent.size(), min_frames);
+  ASSERT_EQ(seen.size(), sent.size()) << console;
+  for (std::size_t i = 0; i < sent.size(); ++i) {
+    EXPECT_EQ(seen[i], sent[i]) << "frame " << i << ": bus " << (*seen_lines)[i] << ", sent " << (*sent_lines)[i];
+  }
+
+  if (const std::string missing = decoder_unavailable(); !missing.empty()) {
+    std::printf("[ skipped  ] DBC decoding: %s\n", missing.c_str());
+    return;
+  }
+  const fs::path log = cache_dir() / "jobs" / ("candump-" + std::to_string(::getpid()) + ".log");
+  {
+    std::ofstream out(log);
+    for (std::size_t i = 0; i + 1 < seen_lines->size(); ++i) out << (*seen_lines)[i] << "\n";
+  }
+  const fs::path dbc = fs::path(RUTD_SOURCE_DIR) / "config" / "rutd.dbc";
+  const fs::path errors = log.string() + ".err";
+  const int status = run_shell(std::string(kPython) + " " + quoted(qemu_dir().parent_path() / "decode_candump.py") +
+                               " " + quoted(dbc) + " " + quoted(log) + " >/dev/null 2>" + quoted(errors));
+  const std::string report = read_text(errors);
+  EXPECT_EQ(status, 0) << report;
+  EXPECT_NE(report.find("frames=" + std::to_string(sent.size()) + " "), std::string::npos) << report;
+  fs::remove(log);
+  fs::remove(errors);
+}
+
+// The sink's own kernel tests, which skip on a host without CAN, pass on a kernel with it.
+TEST_F(GuestKernel, SocketCanSinkTestsPassOnARealKernel) {
+  const fs::path tests = bin_dir() / "test_socketcan";
+  ASSERT_TRUE(fs::exists(tests)) << "build the test_socketcan target first: " << tests;
+  const GuestRun run = boot(quoted(tests) +
+                            " --gtest_filter='SocketCanSinkOnKernel.*:SocketCanSinkOpen.*' 2>&1\n"
+                            "echo RUTD-TESTS-EXIT=$?\n");
+  SKIP_IF_NO_GUEST();
+  ASSERT_TRUE(guest_completed(run));
+  EXPECT_EQ(value_after(run.console, "RUTD-TESTS-EXIT="), "0") << run.console;
+  EXPECT_NE(run.console.find("[  PASSED  ] 5 tests."), std::string::npos) << run.console;
+  EXPECT_EQ(run.console.find("SKIPPED"), std::string::npos) << "a kernel test skipped in the guest\n" << run.console;
+}
+
+// Diagnostic sender (test_socketcan's EncodedFramesArriveUnchanged, which logs what it sent): the
+// harness itself, independent of rutd's command line.
+TEST_F(GuestKernel, CandumpRecordsWhatTheSinkSent) {
+  const fs::path tests = bin_dir() / "test_socketcan";
+  ASSERT_TRUE(fs::exists(tests)) << "build the test_socketcan target first: " << tests;
+  const GuestRun run = boot("exec /bin/sh " + quoted(qemu_dir() / "guest-candump.sh") +
+                            " /tmp/sent.log env RUTD_SOCKETCAN_SENT_LOG=/tmp/sent.log " + quoted(tests) +
+                            " --gtest_filter=SocketCanSinkOnKernel.EncodedFramesArriveUnchanged\n");
+  SKIP_IF_NO_GUEST();
+  ASSERT_TRUE(guest_completed(run));
+  check_candump_matches_sent(run.console, 15);
+}
+
+bool rutd_has_socketcan_option() {
+  const fs::path help = cache_dir() / ("rutd-run-help-" + std::to_string(::getpid()));
+  run_shell(quoted(RUTD_BINARY) + " run --help >" + quoted(help) + " 2>&1");
+  const bool has = read_text(help).find("--socketcan") != std::string::npos;
+  fs::remove(help);
+  return has;
+}
+
+// rutd itself: `rutd run --frames 5 --socketcan vcan0 --candump LOG` on the synthetic source puts on
+// the bus exactly what it logs, and that decodes with the DBC. Small images, block matching and no DIC
+// keep it to about 30 s under emulation (the defaults take minutes there); the CAN path is the same.
+TEST_F(GuestKernel, RutdSendsOnVcanWhatItLogs) {
+  fs::create_directories(cache_dir());
+  if (!rutd_has_socketcan_option()) GTEST_SKIP() << "`rutd run` has no --socketcan option yet";
+  const GuestRun run = boot("exec /bin/sh " + quoted(qemu_dir() / "guest-candump.sh") + " /tmp/rutd.log " +
+                            quoted(RUTD_BINARY) + " run --frames 5 --size 320x240 --engine bm --no-dic"
+                            " --socketcan vcan0 --candump /tmp/rutd.log\n");
+  SKIP_IF_NO_GUEST();
+  ASSERT_TRUE(guest_completed(run));
+  check_candump_matches_sent(run.console, 10);  // two measurement frames per stereo pair at least
+}
+
+}  // namespace
+}  // namespace rutd
