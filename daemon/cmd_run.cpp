@@ -1,32 +1,33 @@
-// rutd run: measure continuously from a live source and publish every measurement as CAN frames, plus a
-// status frame at a fixed rate that carries the sensor's health even when nothing can be measured.
-// With no options it runs the embedded default: the synthetic cameras at their real frame rate, the CAN
-// frames printed on stdout in candump format, logs on stderr. It stops cleanly on SIGINT or SIGTERM.
+// rutd run: the daemon. Loads the configuration (or the embedded default), starts the real-time
+// pipeline (acquire -> rectify -> match -> extract -> publish), publishes every measurement as CAN
+// frames plus a periodic status frame, and talks to systemd (READY, STATUS, WATCHDOG). With no options it
+// runs on any machine: synthetic cameras at their real frame rate, CAN frames on stdout (candump -L
+// format), logs on stderr. SIGINT/SIGTERM: stop, drain, exit 0 within a second.
 #include <spdlog/spdlog.h>
 
 #include <atomic>
-#include <chrono>
 #include <csignal>
 #include <fstream>
 #include <iostream>
 #include <memory>
+#include <optional>
+#include <thread>
 
 #include "daemon/commands.hpp"
-#include "daemon/measure_options.hpp"
-#include "daemon/run_summary.hpp"
-#include "daemon/synth_options.hpp"
-#include "drivers/can_encoder.hpp"
-#include "drivers/candump_log.hpp"
+#include "daemon/config.hpp"
+#include "daemon/run_sources.hpp"
+#include "daemon/service_notifier.hpp"
+#include "daemon/supervisor.hpp"
+#include "daemon/sinks.hpp"
 #include "drivers/input_error.hpp"
-#include "drivers/synthetic_source.hpp"
+#include "pipeline/realtime_pipeline.hpp"
 
 namespace rutd {
 namespace {
 
-// Set from the signal handler; lock-free atomics are async-signal-safe.
+// Set from the signal handler; a lock-free atomic is async-signal-safe.
 std::atomic<bool> g_stop_requested{false};
 static_assert(std::atomic<bool>::is_always_lock_free);
-
 extern "C" void on_stop_signal(int) { g_stop_requested.store(true, std::memory_order_relaxed); }
 
 void install_stop_handlers() {
@@ -37,88 +38,128 @@ void install_stop_handlers() {
   sigaction(SIGTERM, &action, nullptr);
 }
 
+// Command-line overrides of the configuration, for quick runs and tests.
 struct RunOptions {
-  std::uint64_t frames = 0;  // 0: until stopped
-  std::string candump = "-";
-  std::string can_interface = "can0";
-  double status_period_ms = 100.0;
-  SynthOptions scene;
-  MeasureOptions measure;
+  std::string config;
+  std::uint64_t frames = 0;  // stop after this many published measurements; 0: until a signal
+  std::optional<std::string> socketcan, candump, csv, size, engine, replay_dir;
+  bool no_dic = false;
 };
 
-std::int64_t monotonic_ns() {
-  return std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::steady_clock::now().time_since_epoch())
-      .count();
+RutdConfig effective_config(const RunOptions& o) {
+  RutdConfig c = o.config.empty() ? parse_config(default_config_text(), "(embedded default)") : load_config(o.config);
+  if (o.socketcan) c.sinks.socketcan = *o.socketcan;
+  if (o.candump) c.sinks.candump = *o.candump;
+  if (o.csv) c.sinks.csv = *o.csv;
+  if (o.no_dic) c.measurement.dic = false;
+  if (o.engine) c.measurement.engine = *parse_engine(*o.engine);  // checked by IsMember
+  if (o.replay_dir) {
+    c.source = SourceKind::Replay;
+    c.replay.dir = *o.replay_dir;
+  }
+  if (o.size) {
+    int w = 0, h = 0;
+    if (std::sscanf(o.size->c_str(), "%dx%d", &w, &h) != 2 || w < 64 || h < 64 || w > 8192 || h > 8192)
+      throw CLI::ValidationError("--size", "expected WIDTHxHEIGHT, got '" + *o.size + "'");
+    c.synthetic.rig.image_size = {w, h};
+  }
+  return c;
 }
 
-int run_live(const RunOptions& o) {
-  SyntheticSource source(resolve_synth_options(o.scene));
-  const MeasurerConfig config = resolve_measure_options(o.measure, source.calibration().image_size);
-  StereoMeasurer measurer(source.calibration(), config);
+std::ostream* open_stream(const std::string& path, std::ofstream& file, const char* key) {
+  if (path.empty()) return nullptr;
+  if (path == "-") return &std::cout;
+  file.open(path, std::ios::out | std::ios::trunc);
+  if (!file) throw InputError(path, key, "cannot open for writing");
+  return &file;
+}
 
-  std::ofstream file;
-  std::ostream* out = &std::cout;
-  if (o.candump != "-") {
-    file.open(o.candump, std::ios::out | std::ios::trunc);
-    if (!file) throw InputError(o.candump, "--candump", "cannot open for writing");
-    out = &file;
-  }
-  CandumpLogWriter candump(*out, o.can_interface);
-  CanEncoder encoder;
+PipelineConfig pipeline_config(const RutdConfig& c) {
+  PipelineConfig p;
+  p.max_frame_age = std::chrono::milliseconds(static_cast<long>(c.pipeline.max_frame_age_ms));
+  p.status_period = std::chrono::milliseconds(static_cast<long>(c.pipeline.status_period_ms));
+  p.log_period = std::chrono::milliseconds(static_cast<long>(c.logging.stats_period_s * 1000));
+  p.on_log = [](const PipelineStats& s) { spdlog::info("{}", describe(s)); };
+  // A recording's timestamps are its own time base, not this machine's clock.
+  p.capture_clock_is_local = c.source != SourceKind::Replay;
+  for (std::size_t i = 0; i < c.pipeline.cpu_affinity.size() && i < kStageCount; ++i)
+    p.threads[i].cpu = c.pipeline.cpu_affinity[i];
+  for (auto& t : p.threads) t.fifo_priority = c.pipeline.realtime_priority;
+  return p;
+}
+
+int run_daemon(const RunOptions& o) {
+  const RutdConfig c = effective_config(o);
+  spdlog::set_level(spdlog::level::from_str(c.logging.level));
+  std::unique_ptr<FrameSource> source = make_source(c);  // throws InputError for a bad recording/calibration
+  const StereoMeasurer measurer(source->calibration(), c.measurement);
+  MeasurerStages stages(measurer);
+
+  std::ofstream candump_file, csv_file;
+  std::ostream* candump_stream = open_stream(c.sinks.candump, candump_file, "sinks.candump");
+  std::ostream* csv_stream = open_stream(c.sinks.csv, csv_file, "sinks.csv");
+  std::unique_ptr<SocketCanSink> bus;
+  if (!c.sinks.socketcan.empty()) bus = std::make_unique<SocketCanSink>(c.sinks.socketcan);  // throws, naming it
+  std::unique_ptr<CandumpLogWriter> log;
+  if (candump_stream != nullptr) log = std::make_unique<CandumpLogWriter>(*candump_stream, c.sinks.can_interface_name);
+  CanPublisher can(c.can, bus.get(), log.get(), candump_stream);
+  std::unique_ptr<CsvSink> csv;
+  if (csv_stream != nullptr) csv = std::make_unique<CsvSink>(*csv_stream);
+  LatestMeasurement latest;
+  std::vector<MeasurementSink*> sinks{&can, &latest};
+  if (csv) sinks.push_back(csv.get());
+  SinkFanout fanout(sinks);
+
   install_stop_handlers();
-  spdlog::info("measuring from the synthetic cameras with engine {}{}; CAN frames to {}", to_string(config.engine),
-               config.dic ? " + DIC" : "", o.candump == "-" ? "stdout" : o.candump);
+  ServiceNotifier systemd;
+  RealtimePipeline pipeline(*source, stages, fanout, pipeline_config(c));
+  spdlog::info("rutd {}: source {}, engine {}{}, CAN to {}{}", c.file, describe_source(c), to_string(c.measurement.engine),
+               c.measurement.dic ? " + DIC" : "", bus ? c.sinks.socketcan : std::string("no bus"),
+               log ? (", candump log to " + (c.sinks.candump == "-" ? std::string("stdout") : c.sinks.candump)) : "");
+  pipeline.start();
+  for (const auto& w : pipeline.placement_warnings()) spdlog::warn("thread placement: {}", w);
 
-  RunSummary summary;
-  StereoFrame frame;
-  std::array<CanFrame, 2> frames{};
-  SensorHealth health;
-  std::int64_t last_status_ns = 0, rate_window_start_ns = monotonic_ns();
-  std::uint64_t rate_window_pairs = 0;
-  const auto status_period_ns = static_cast<std::int64_t>(o.status_period_ms * 1e6);
-  while (!g_stop_requested.load(std::memory_order_relaxed) && (o.frames == 0 || summary.pairs() < o.frames)) {
-    const SourceStatus status = source.next(frame);
-    health.no_camera = status == SourceStatus::Error;
-    if (status == SourceStatus::Ok) {
-      const RutMeasurement m = measurer.measure(frame.left, frame.right);
-      summary.add(m, measurer.diagnostics());
-      health.last_status = m.status;
-      ++rate_window_pairs;
-      const int n = encoder.encode_measurement(m, frames);
-      const std::int64_t now = monotonic_ns();
-      for (int i = 0; i < n; ++i) candump.write(frames[static_cast<std::size_t>(i)], now);
-    } else if (status == SourceStatus::Error) {
-      spdlog::error("{}", source.error_message());
-    }
-    const std::int64_t now = monotonic_ns();
-    if (now - last_status_ns >= status_period_ns) {
-      if (now > rate_window_start_ns)
-        health.frame_rate_hz = rate_window_pairs * 1e9 / static_cast<double>(now - rate_window_start_ns);
-      rate_window_start_ns = now;
-      rate_window_pairs = 0;
-      candump.write(encoder.encode_status(health), now);
-      last_status_ns = now;
-    }
-    out->flush();
+  // The main thread supervises: readiness, watchdog, status line, stop conditions.
+  using namespace std::chrono;
+  const auto watchdog = duration_cast<milliseconds>(systemd.watchdog_interval());
+  const auto tick = watchdog.count() > 0 ? std::min(watchdog / 4, milliseconds(100)) : milliseconds(100);
+  Supervisor supervisor(systemd, watchdog.count() > 0 ? watchdog : milliseconds(5000), seconds(30));
+  int exit_code = 0;
+  while (!g_stop_requested.load(std::memory_order_relaxed)) {
+    std::this_thread::sleep_for(tick);
+    const PipelineStats s = pipeline.stats();
+    supervisor.tick(s, latest, monotonic_now_ns());
+    if ((o.frames > 0 && s.published >= o.frames) || s.finished) break;
   }
-  summary.log();
-  return 0;
+  systemd.stopping();
+  pipeline.stop();
+  const PipelineStats s = pipeline.stats();
+  spdlog::info("stopped: {}", describe(s));
+  if (bus) {
+    const SocketCanStats& b = bus->stats();
+    spdlog::info("CAN {}: {} frames sent, {} dropped (queue full), {} write errors, {} bus-off events", c.sinks.socketcan,
+                 b.sent, b.dropped, b.write_errors, b.bus_off_events);
+  }
+  return exit_code;
 }
 
 }  // namespace
 
 void add_run_command(CLI::App& app, int& exit_code) {
-  auto options = std::make_shared<RunOptions>();
-  CLI::App* cmd = app.add_subcommand("run", "Measure continuously and publish rut depth as CAN frames");
-  cmd->add_option("--frames", options->frames, "Stop after this many stereo pairs (0: run until SIGINT/SIGTERM)")
+  auto o = std::make_shared<RunOptions>();
+  CLI::App* cmd = app.add_subcommand("run", "Measure continuously and publish rut depth on CAN (the daemon)");
+  cmd->add_option("--config", o->config, "Configuration file (default: the embedded one, see config/rutd.yaml)");
+  cmd->add_option("--frames", o->frames, "Stop after this many published measurements (0: until SIGINT/SIGTERM)")
       ->capture_default_str();
-  cmd->add_option("--candump", options->candump, "Where CAN frames go, candump -L format ('-': standard output)")
-      ->capture_default_str();
-  cmd->add_option("--can-interface", options->can_interface, "Interface name written in the candump log")
-      ->capture_default_str();
-  add_synth_options(*cmd, options->scene);
-  add_measure_options(*cmd, options->measure);
-  cmd->callback([options, &exit_code] { exit_code = run_live(*options); });
+  cmd->add_option("--socketcan", o->socketcan, "Send on this CAN interface (overrides sinks.socketcan)");
+  cmd->add_option("--candump", o->candump, "candump -L log of the frames sent, '-' for stdout, '' for none (sinks.candump)");
+  cmd->add_option("--csv", o->csv, "Measurement CSV file (sinks.csv)");
+  cmd->add_option("--replay", o->replay_dir, "Measure a recording folder at its own pace instead of the configured source");
+  cmd->add_option("--size", o->size, "Synthetic camera image size WIDTHxHEIGHT (source.synthetic.size)");
+  cmd->add_option("--engine", o->engine, "Disparity engine (measurement.engine)")
+      ->check(CLI::IsMember({"bm", "sgbm", "sgbm3way", "hh4", "hh"}));
+  cmd->add_flag("--no-dic", o->no_dic, "No sub-pixel refinement (measurement.dic: false)");
+  cmd->callback([o, &exit_code] { exit_code = run_daemon(*o); });
 }
 
 }  // namespace rutd

@@ -2,10 +2,12 @@
 #include "drivers/synthetic_renderer.hpp"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <numbers>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 #include <opencv2/calib3d.hpp>
 #include <opencv2/core/utility.hpp>
@@ -23,6 +25,10 @@ constexpr double kHitToleranceMm = 1e-7;
 // Pixel-centre rays are refined until they reproject this close to the pixel.
 constexpr double kRayTolerancePx = 1e-6;
 constexpr double kAmbient = 0.35;  // fraction of radiance that does not depend on the sun
+// A pixel whose hit distance deviates by more than this (second difference) from its row neighbours'
+// straddles a silhouette. A smooth surface seen at the rig's scale bends the hit distance by far less
+// per pixel; an over-eager test only costs time.
+constexpr double kEdgeJumpMm = 1.0;
 
 void require(bool ok, const std::string& field, const std::string& what) {
   if (!ok) throw std::invalid_argument("synthetic: " + field + ": " + what);
@@ -62,40 +68,53 @@ cv::Vec2d to_distorted_normalised(const cv::Matx33d& K, double u, double v) {
   return {(u - K(0, 2)) / K(0, 0), (v - K(1, 2)) / K(1, 1)};
 }
 
-// Undistorted normalised coordinates of every pixel centre: cv::undistortPoints, then Newton steps on
-// OpenCV's forward model until the ray reprojects within kRayTolerancePx.
+// Undistorted normalised coordinates of every pixel centre: Newton steps on OpenCV's forward model
+// until the ray reprojects within kRayTolerancePx, started from cv::undistortPoints at the first pixel
+// of each row and from the previous pixel's solution (moved by the pixel step) along the row. The
+// model must be invertible and orientation-preserving (positive Jacobian determinant) at every pixel.
 cv::Mat pixel_centre_rays(const cv::Matx33d& K, const cv::Vec<double, 5>& dist, cv::Size size,
                           const std::string& field) {
-  cv::Mat pixels(1, size.area(), CV_64FC2), undistorted;
-  for (int v = 0; v < size.height; ++v) {
-    for (int u = 0; u < size.width; ++u) pixels.at<cv::Vec2d>(0, v * size.width + u) = cv::Vec2d(u, v);
-  }
-  cv::undistortPoints(pixels, undistorted, K, dist, cv::noArray(), cv::noArray(),
-                      cv::TermCriteria(cv::TermCriteria::COUNT + cv::TermCriteria::EPS, 20, 1e-9));
   cv::Mat centres(size, CV_64FC2);
   const double f = std::max(K(0, 0), K(1, 1));
-  for (int v = 0; v < size.height; ++v) {
-    for (int u = 0; u < size.width; ++u) {
-      const cv::Vec2d target = to_distorted_normalised(K, u, v);
-      cv::Vec2d n = undistorted.at<cv::Vec2d>(0, v * size.width + u);
-      for (int i = 0; i < 4; ++i) n -= distortion_jacobian(dist, n).inv() * (distort(dist, n) - target);
-      require(cv::norm(distort(dist, n) - target) * f < kRayTolerancePx, field,
-              "the distortion cannot be inverted over the image (not monotonic)");
-      centres.at<cv::Vec2d>(v, u) = n;
+  std::atomic<bool> invertible{true};
+  cv::parallel_for_(cv::Range(0, size.height), [&](const cv::Range& rows) {
+    for (int v = rows.start; v < rows.end; ++v) {
+      std::vector<cv::Point2d> first{cv::Point2d(0, v)}, undistorted;
+      cv::undistortPoints(first, undistorted, K, dist, cv::noArray(), cv::noArray(),
+                          cv::TermCriteria(cv::TermCriteria::COUNT + cv::TermCriteria::EPS, 20, 1e-9));
+      cv::Vec2d n(undistorted[0].x, undistorted[0].y), previous_target = to_distorted_normalised(K, 0, v);
+      cv::Vec2d* row = centres.ptr<cv::Vec2d>(v);
+      for (int u = 0; u < size.width; ++u) {
+        const cv::Vec2d target = to_distorted_normalised(K, u, v);
+        if (u > 0) n += distortion_jacobian(dist, n).inv() * (target - previous_target);
+        previous_target = target;
+        for (int i = 0; i < 8; ++i) {
+          const cv::Vec2d step = distortion_jacobian(dist, n).inv() * (distort(dist, n) - target);
+          n -= step;
+          if (cv::norm(step) * f < 1e-3 * kRayTolerancePx) break;
+        }
+        if (!(cv::norm(distort(dist, n) - target) * f < kRayTolerancePx) ||
+            !(cv::determinant(distortion_jacobian(dist, n)) > 0)) {
+          invertible = false;
+        }
+        row[u] = n;
+      }
     }
-  }
+  });
+  require(invertible, field, "the distortion cannot be inverted over the image (not monotonic)");
   return centres;
 }
 
 // Illinois false position on [ta, tb] with f(ta) > 0 >= f(tb): converges to the root in the bracket.
+// Stops when |f| < tolerance; leaves the last bracket in ta, tb.
 template <class F>
-double refine_root(const F& f, double ta, double fa, double tb, double fb) noexcept {
+double refine_root(const F& f, double& ta, double fa, double& tb, double fb, double tolerance) noexcept {
   int side = 0;
   for (int i = 0; i < 100 && fb != 0; ++i) {
     double t = tb - fb * (tb - ta) / (fb - fa);
     if (!(t > ta && t < tb)) t = 0.5 * (ta + tb);
     const double ft = f(t);
-    if (std::abs(ft) < kHitToleranceMm) return t;
+    if (std::abs(ft) < tolerance) return t;
     if (ft > 0) {
       ta = t, fa = ft;
       if (side == 1) fb *= 0.5;
@@ -175,6 +194,7 @@ void validate_params(const SynthParams& p) {
   require(std::isfinite(p.full_well_e) && p.full_well_e >= 0, "full_well_e", "must be >= 0");
   require(std::isfinite(p.exposure) && p.exposure > 0, "exposure", "must be > 0");
   require(p.supersample >= 1 && p.supersample <= 8, "supersample", "must be within [1, 8]");
+  require(p.edge_supersample >= 1 && p.edge_supersample <= 8, "edge_supersample", "must be within [1, 8]");
   require(p.bit_depth == 8 || p.bit_depth == 16, "bit_depth", "must be 8 or 16");
   const double tilt = std::sin(std::abs(p.rig.roll_deg) * kDeg) * p.rig.baseline_mm / 2;
   const double pile = std::max(p.rut.pile_left_mm, p.rut.pile_right_mm);
@@ -187,6 +207,104 @@ void validate_params(const SynthParams& p) {
 
 // ---------------------------------------------------------------------------------------------------
 // Ray casting
+
+namespace {
+
+// One ray against one frame's terrain: f(t) = height of the ray above the terrain at parameter t.
+struct RayOnTerrain {
+  const RutTerrain& terrain;
+  const cv::Vec3d& o;
+  const cv::Vec3d& d;
+
+  double f(double t) const noexcept {  // on the tabulated terrain (< 1e-9 mm from the exact one)
+    return o[2] + t * d[2] - terrain.height_fast(o[0] + t * d[0], o[1] + t * d[1]);
+  }
+  double f_exact(double t) const noexcept {
+    return o[2] + t * d[2] - terrain.height(o[0] + t * d[0], o[1] + t * d[1]);
+  }
+  double slope(double t) const noexcept {  // df/dt
+    const cv::Vec2d g = terrain.gradient_fast(o[0] + t * d[0], o[1] + t * d[1]);
+    return d[2] - g[0] * d[0] - g[1] * d[1];
+  }
+  // The root in [ta, tb], f(ta) > 0 >= f(tb), the only one there: bracketed on `fast` (f or a cheaper
+  // closed form of it, within 1e-9 mm), polished on the exact terrain.
+  template <class Fast>
+  double root(const Fast& fast, double ta, double fa, double tb, double fb) const noexcept {
+    const auto exact = [this](double t) { return f_exact(t); };
+    const double t = refine_root(fast, ta, fa, tb, fb, 0.1 * kHitToleranceMm);
+    if (std::abs(f_exact(t)) < kHitToleranceMm) return t;
+    // Only if the table were off by more than the tolerance: refine on the exact terrain.
+    const double ea = f_exact(ta), eb = f_exact(tb);
+    if (!(ea > 0 && eb <= 0)) return t;
+    return refine_root(exact, ta, ea, tb, eb, kHitToleranceMm);
+  }
+  double root(double ta, double fa, double tb, double fb) const noexcept {
+    return root([this](double t) { return f(t); }, ta, fa, tb, fb);
+  }
+};
+
+// First hit with a straight rut without tread, where h = P(x - c) depends on world x only. P splits
+// into 15 pieces (flat ground, pile quarters, wall halves, bottom) on each of which it is monotone and
+// either convex or concave, with known heights at the ends. Along the ray f(t) = z(t) - P(s(t)) is then
+// concave (P convex) or convex on each piece, so the first root is found exactly piece by piece
+// without marching: a concave f that is positive at both ends of a piece stays positive; a convex f
+// that is positive at both ends dips below 0 only if its minimum (where f' = 0) does; a sign change
+// over a piece brackets its only root there.
+double cast_straight(const RayOnTerrain& ray, double ta, double t_bottom) noexcept {
+  const RutTerrain& terrain = ray.terrain;
+  const cv::Vec3d& o = ray.o;
+  const cv::Vec3d& d = ray.d;
+  const double s0 = o[0] - terrain.shape().lateral_offset_mm;  // profile position at t = 0
+  if (d[0] == 0) return (o[2] - terrain.profile(s0)) / -d[2];
+  constexpr int kPieces = RutTerrain::kProfilePieces;
+  const bool forward = d[0] > 0;  // walking towards larger s
+  const double t_per_s = 1.0 / d[0];
+  double fa = ray.f(ta);
+  if (fa <= 0) return ta;
+  for (int step = 0; step < kPieces; ++step) {
+    const int k = forward ? step : kPieces - 1 - step;
+    const RutTerrain::ProfilePiece& piece = terrain.piece(k);
+    // The walk leaves piece k at its end going forward, at the end of piece k - 1 going backward.
+    const bool open_end = forward ? k == kPieces - 1 : k == 0;
+    const double s_exit = open_end ? 0.0 : (forward ? piece.s_end : terrain.piece(k - 1).s_end);
+    double tb = t_bottom;
+    if (!open_end) {
+      tb = (s_exit - s0) * t_per_s;
+      if (tb <= ta) continue;  // behind the start (or a piece of zero width)
+    }
+    const bool clipped = tb >= t_bottom;
+    double fb;
+    if (clipped) {
+      tb = t_bottom;
+      fb = ray.f(tb);
+    } else {
+      fb = o[2] + tb * d[2] - (forward ? piece.h_end : terrain.piece(k - 1).h_end);
+    }
+    if (fb <= 0) {
+      // f(t) = o_z + t d_z - a - b cos(pi (w0 + w1 t)) on this piece: one table lookup per evaluation.
+      const double w0 = piece.g * s0 + piece.m, w1 = piece.g * d[0], z0 = o[2] - piece.a, b = piece.b;
+      const auto on_piece = [&](double t) { return z0 + t * d[2] - b * fast_cos_pi(w0 + w1 * t); };
+      return ray.root(on_piece, ta, fa, tb, fb);
+    }
+    const double h_start = k == 0 ? 0.0 : terrain.piece(k - 1).h_end;
+    if (!piece.convex && o[2] + tb * d[2] <= std::max(h_start, piece.h_end)) {
+      // Convex f, positive at both ends: a root needs a minimum inside with f <= 0.
+      const double ga = ray.slope(ta), gb = ray.slope(tb);
+      if (ga < 0 && gb > 0) {
+        double lo = ta, hi = tb;
+        const auto minus_slope = [&ray](double t) { return -ray.slope(t); };
+        const double tm = refine_root(minus_slope, lo, -ga, hi, -gb, 1e-12);
+        const double fm = ray.f(tm);
+        if (fm <= 0) return ray.root(ta, fa, tm, fm);
+      }
+    }
+    if (clipped) return tb;  // unreachable: f(t_bottom) <= 0 as h >= min_height
+    ta = tb, fa = fb;
+  }
+  return t_bottom;
+}
+
+}  // namespace
 
 double cast_ray(const RutTerrain& terrain, const cv::Vec3d& o, const cv::Vec3d& d) noexcept {
   if (!(d[2] < 0)) return -1;
@@ -203,9 +321,11 @@ double cast_ray(const RutTerrain& terrain, const cv::Vec3d& o, const cv::Vec3d& 
       x_hi <= shape.lateral_offset_mm + shape.bottom_width_mm / 2) {
     return (o[2] + shape.depth_mm) * inv;  // the whole slab crossing lies over the flat bottom
   }
-  const auto f = [&](double t) {
-    return o[2] + t * d[2] - terrain.height(o[0] + t * d[0], o[1] + t * d[1]);
-  };
+  const RayOnTerrain ray{terrain, o, d};
+  if (!shape.tread && shape.wander_amplitude_mm == 0) return cast_straight(ray, t_top, t_bottom);
+  // March and bracket on the tabulated terrain (error < 1e-9 mm, far below the 0.01 mm sliver the
+  // marching may step over anyway); the root itself is polished on the exact terrain.
+  const auto f = [&ray](double t) { return ray.f(t); };
   // f(t) = ray height above the terrain. |f'| <= lipschitz, so a step of f / lipschitz never passes a
   // root ("safe" step). |f''| <= curvature: when the secant over [ta, tb] falls faster than
   // curvature * (tb - ta), f is strictly decreasing on it and has at most one root there. Bolder steps
@@ -230,7 +350,7 @@ double cast_ray(const RutTerrain& terrain, const cv::Vec3d& o, const cv::Vec3d& 
       const bool decreasing = fa - fb > curvature * width * width;
       const bool bold = step > safe;
       if (fb <= 0) {
-        if (!bold || decreasing) return refine_root(f, ta, fa, tb, fb);
+        if (!bold || decreasing) return ray.root(ta, fa, tb, fb);
       } else if (!bold || decreasing || fa + fb >= lipschitz * width) {
         if (tb >= t_bottom) return tb;  // unreachable: f(t_bottom) <= 0 as h >= min_height
         slope = (fb - fa) / width;
@@ -352,38 +472,85 @@ void SyntheticRenderer::render(std::uint64_t index, StereoFrame& out) const {
   out.clock = ClockKind::Monotonic;
 }
 
-float SyntheticRenderer::radiance(const RutTerrain& terrain, const cv::Vec3d& p) const noexcept {
-  const cv::Vec2d g = terrain.gradient(p[0], p[1]);
+float SyntheticRenderer::radiance(const cv::Vec3d& p, const cv::Vec2d& g, double footprint_mm) const noexcept {
   const double cosine = (-g[0] * sun_[0] - g[1] * sun_[1] + sun_[2]) / std::sqrt(1 + g.dot(g));
   const double light = kAmbient + (1 - kAmbient) * std::max(0.0, cosine);
-  return static_cast<float>(light) * texture_.albedo(p);
+  const float albedo = params_.band_limit ? texture_.albedo(p, footprint_mm) : texture_.albedo(p);
+  return static_cast<float>(light) * albedo;
+}
+
+namespace {
+
+// Surface distance between neighbouring samples at the hit p = o + t d (ray differentials on the
+// tangent plane of normal n): dd_u, dd_v are the ray's changes per sample step along u and v.
+double sample_footprint(const cv::Vec3d& d, double t, const cv::Vec3d& n, const cv::Vec3d& dd_u,
+                        const cv::Vec3d& dd_v) {
+  const double nd = n.dot(d);
+  if (!(nd < 0)) return 1e9;  // grazing: no detail survives
+  const cv::Vec3d pu = t * (dd_u - d * (n.dot(dd_u) / nd));
+  const cv::Vec3d pv = t * (dd_v - d * (n.dot(dd_v) / nd));
+  return std::sqrt(std::max(pu.dot(pu), pv.dot(pv)));
+}
+
+}  // namespace
+
+double SyntheticRenderer::pixel_radiance(const CameraModel& m, const cv::Vec3d& origin, const RutTerrain& terrain,
+                                         const cv::Vec2d& centre, int n, double& t_centre) const noexcept {
+  const cv::Matx22d inverse_jacobian = distortion_jacobian(m.dist, centre).inv();
+  // World ray change per sample step (1/n pixel) along u and v, for the texture footprint.
+  const cv::Vec2d step_u = inverse_jacobian * cv::Vec2d(1.0 / (n * m.K(0, 0)), 0);
+  const cv::Vec2d step_v = inverse_jacobian * cv::Vec2d(0, 1.0 / (n * m.K(1, 1)));
+  const cv::Vec3d dd_u = m.world_from_camera * cv::Vec3d(step_u[0], step_u[1], 0);
+  const cv::Vec3d dd_v = m.world_from_camera * cv::Vec3d(step_v[0], step_v[1], 0);
+  double sum = 0;
+  t_centre = -1;
+  for (int j = 0; j < n; ++j) {
+    for (int i = 0; i < n; ++i) {
+      const double du = (i + 0.5) / n - 0.5, dv = (j + 0.5) / n - 0.5;
+      const cv::Vec3d dir = m.world_from_camera * sample_ray(m.K, centre, inverse_jacobian, du, dv);
+      const double t = cast_ray(terrain, origin, dir);
+      if (2 * i + 1 == n && 2 * j + 1 == n) t_centre = t * cv::norm(dir);
+      if (t <= 0) continue;
+      const cv::Vec3d p = origin + t * dir;
+      const cv::Vec2d g = terrain.gradient_fast(p[0], p[1]);
+      const double footprint = sample_footprint(dir, t, cv::Vec3d(-g[0], -g[1], 1), dd_u, dd_v);
+      sum += radiance(p, g, footprint);
+    }
+  }
+  return sum / (n * n);
 }
 
 void SyntheticRenderer::render_row(Camera camera, const cv::Vec3d& origin, const RutTerrain& terrain,
                                    std::uint64_t index, int row, cv::Mat& image) const {
   const CameraModel& m = model(camera);
   const int n = params_.supersample;
-  double offsets[8];
-  for (int i = 0; i < n; ++i) offsets[i] = (i + 0.5) / n - 0.5;
-  const double weight = 1.0 / (n * n);
+  const int n_edge = n == 1 ? params_.edge_supersample : 1;
   const double scale = 255.0 * params_.exposure;
   const double read_var = params_.noise_sigma * params_.noise_sigma;
   const double shot_gain = params_.full_well_e > 0 ? 255.0 / params_.full_well_e : 0.0;
   const bool noisy = read_var > 0 || shot_gain > 0;
   Gaussian gauss(row_seed(params_.seed, index, camera, row));
   const cv::Vec2d* centres = m.centres.ptr<cv::Vec2d>(row);
-  for (int u = 0; u < image.cols; ++u) {
-    const cv::Matx22d inverse_jacobian = distortion_jacobian(m.dist, centres[u]).inv();
-    double sum = 0;
-    for (int j = 0; j < n; ++j) {
-      for (int i = 0; i < n; ++i) {
-        const cv::Vec3d dir =
-            m.world_from_camera * sample_ray(m.K, centres[u], inverse_jacobian, offsets[i], offsets[j]);
-        const double t = cast_ray(terrain, origin, dir);
-        if (t > 0) sum += radiance(terrain, origin + t * dir);
+  const int cols = image.cols;
+  // A sliding window over the row: pixel u is finished once u + 1 is rendered, so its hit distance can
+  // be compared with both neighbours'. A kink-free surface changes the hit distance smoothly from pixel
+  // to pixel; a jump (a silhouette, where a pile hides what lies behind it) is rendered again with
+  // n_edge x n_edge samples so the edge is anti-aliased.
+  double dist[3] = {-1, -1, -1}, value[3] = {0, 0, 0};  // previous, current, next pixel
+  value[2] = pixel_radiance(m, origin, terrain, centres[0], n, dist[2]);
+  for (int u = 0; u < cols; ++u) {
+    dist[0] = dist[1], value[0] = value[1];
+    dist[1] = dist[2], value[1] = value[2];
+    if (u + 1 < cols) value[2] = pixel_radiance(m, origin, terrain, centres[u + 1], n, dist[2]);
+    double mean = value[1];
+    if (n_edge > 1 && u > 0 && u + 1 < cols) {
+      const int misses = (dist[0] < 0) + (dist[1] < 0) + (dist[2] < 0);  // rays above the horizon
+      if (misses == 0 ? std::abs(dist[2] - 2 * dist[1] + dist[0]) > kEdgeJumpMm : misses < 3) {
+        double unused = 0;
+        mean = pixel_radiance(m, origin, terrain, centres[u], n_edge, unused);
       }
     }
-    double signal = scale * sum * weight;  // grey levels of the 8-bit scale
+    double signal = scale * mean;  // grey levels of the 8-bit scale
     if (noisy) signal += std::sqrt(read_var + shot_gain * std::max(signal, 0.0)) * gauss();
     if (image.depth() == CV_8U) {
       image.ptr<std::uint8_t>(row)[u] = cv::saturate_cast<std::uint8_t>(signal);

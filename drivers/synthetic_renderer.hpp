@@ -13,10 +13,12 @@
 //
 // Rendering a raw pixel: its centre is undistorted once, at construction, to a ray; the ray of each of
 // the supersample x supersample sub-pixel samples is the centre ray moved by the inverse distortion
-// Jacobian (error < 1e-3 px). Each sample ray is intersected exactly with the height field (first hit,
-// so a pile may occlude the wall behind it; < 1e-5 mm), the solid texture is evaluated at the hit point
-// and shaded (Lambert, fixed sun + ambient); the box-filtered mean goes through the sensor model
-// (exposure, shot and read noise from an RNG seeded by seed, frame index, camera and row).
+// Jacobian (error < 1e-3 px); by default one sample per pixel, n x n at silhouettes (see SynthParams).
+// Each sample ray is intersected exactly with the height field (first hit, so a pile may occlude the
+// wall behind it; < 1e-5 mm; see cast_ray).  The solid texture is evaluated at the hit point, band-limited to
+// the sample spacing there (ray differentials on the tangent plane), and shaded (Lambert, fixed sun +
+// ambient); the box-filtered mean goes through the sensor model (exposure, shot and read noise from an
+// RNG seeded by seed, frame index, camera and row).
 #include <cstdint>
 #include <optional>
 #include <utility>
@@ -62,7 +64,16 @@ struct SynthParams {
   double exposure = 1.0;        // radiance 1 (white, facing the sun) maps to exposure * 255 grey levels
   std::uint64_t seed = 1;       // texture and noise; same seed and frame index = same images
   DepthProfile depth_profile;   // (frame, depth_mm) knots; empty = rut.depth_mm for every frame
-  int supersample = 3;          // samples per pixel side, 1..8 (box filter)
+  // Samples per pixel side, 1..8 (box filter). Each sample sees the texture band-limited to the sample
+  // spacing on the surface (band_limit), so one sample per pixel is already anti-aliased, better than
+  // 3 x 3 point samples; only silhouettes need more (edge_supersample).
+  int supersample = 1;
+  // With supersample 1: pixels that straddle a silhouette (a jump in hit distance against their row
+  // neighbours, e.g. a pile's crest in front of the wall behind it) get edge_supersample^2 samples.
+  // 1..8; 1 = off.
+  int edge_supersample = 3;
+  // false: point samples of the full texture (aliases unless supersample is large; for comparisons).
+  bool band_limit = true;
   int bit_depth = 8;            // 8 (CV_8UC1) or 16 (CV_16UC1, full scale 65535)
 };
 
@@ -111,7 +122,12 @@ class SyntheticRenderer {
 
   void render_row(Camera camera, const cv::Vec3d& origin, const RutTerrain& terrain, std::uint64_t index,
                   int row, cv::Mat& image) const;
-  float radiance(const RutTerrain& terrain, const cv::Vec3d& p) const noexcept;  // shaded albedo, 0..1
+  // Mean radiance of n x n samples over the pixel whose undistorted centre is `centre`; t_centre: the
+  // distance (mm) to the centre sample's hit when n is odd (< 0: no hit), else -1.
+  double pixel_radiance(const CameraModel& m, const cv::Vec3d& origin, const RutTerrain& terrain,
+                        const cv::Vec2d& centre, int n, double& t_centre) const noexcept;
+  // Shaded albedo (0..1) at hit p with terrain gradient g, for samples footprint_mm apart there.
+  float radiance(const cv::Vec3d& p, const cv::Vec2d& g, double footprint_mm) const noexcept;
   const CameraModel& model(Camera camera) const noexcept {
     return camera == Camera::Left ? left_ : right_;
   }
@@ -125,10 +141,12 @@ class SyntheticRenderer {
 };
 
 // First t > 0 where origin + t * dir meets the terrain (dir need not be unit; dir.z < 0 required for a
-// hit), to 1e-7 mm along z, or a negative value for no hit. First hit: Lipschitz-safe marching never
-// steps past a surface (bolder steps are kept only when a curvature bound proves them safe; only a
-// sliver of terrain thinner than 0.01 mm could be stepped over), then a bracketed false-position
-// refinement. Thread-safe, allocation-free.
+// hit), to 1e-7 mm along z, or a negative value for no hit. A straight rut without tread is solved
+// exactly piece by piece (RutTerrain::piece: no marching, nothing can be stepped over); otherwise
+// Lipschitz-safe marching never steps past a surface (bolder steps are kept only when a curvature bound
+// proves them safe; only a sliver of terrain thinner than 0.01 mm could be stepped over). Brackets are
+// narrowed on the tabulated terrain and the root is polished on the exact one. Thread-safe,
+// allocation-free.
 double cast_ray(const RutTerrain& terrain, const cv::Vec3d& origin, const cv::Vec3d& dir) noexcept;
 
 }  // namespace rutd

@@ -182,8 +182,9 @@ struct PixelResult {
 bool refine_pixel(const cv::Mat& left, const cv::Mat& right_coeff, const cv::Mat& left_dx, int x, int y, float d0,
                   const Warp& start, const DicParams& p, DicScratch& ws, PixelResult& out) {
   const int h = p.half_window;
-  const Window w{std::max(0, x - h), std::min(left.cols - 1, x + h), std::max(0, y - h),
-                 std::min(left.rows - 1, y + h)};
+  const int hh = p.half_height > 0 ? p.half_height : h;
+  const Window w{std::max(0, x - h), std::min(left.cols - 1, x + h), std::max(0, y - hh),
+                 std::min(left.rows - 1, y + hh)};
   const int n = w.size();
   Reference ref;
   if (!prepare_reference(left, left_dx, x, y, w, p, ws, ref)) return false;
@@ -225,10 +226,17 @@ bool refine_pixel(const cv::Mat& left, const cv::Mat& right_coeff, const cv::Mat
         std::abs(-wp.c - d0) > p.max_shift_px) {
       return false;
     }
-    if (std::sqrt(du * du + h * h * (dux * dux + duy * duy)) < p.tolerance_px) {
+    if (std::sqrt(du * du + h * h * dux * dux + hh * hh * duy * duy) < p.tolerance_px) {
       out.disparity = static_cast<float>(-wp.c);
       out.iterations = it;
       out.warp = wp;
+      if (p.max_sigma_px > 0.0) {
+        const int unknowns = p.first_order ? 3 : 1;
+        if (n <= unknowns) return false;
+        // r2 is the residual of this iteration's warp, which the converged update no longer changes.
+        const double variance = r2 / (n - unknowns) * ref.h_inv[0][0];
+        if (!(variance <= p.max_sigma_px * p.max_sigma_px)) return false;
+      }
       return zncc >= p.min_zncc;
     }
   }
@@ -291,7 +299,8 @@ DicStats refine_disparity_dic(const cv::Mat& left_strip, const cv::Mat& right_st
 
   const int stripes = params.parallel ? std::max(1, std::min(cv::getNumThreads(), row_end - row_begin)) : 1;
   if (ws.scratch.size() < static_cast<std::size_t>(stripes)) ws.scratch.resize(static_cast<std::size_t>(stripes));
-  const auto window = static_cast<std::size_t>((2 * params.half_window + 1) * (2 * params.half_window + 1));
+  const int half_height = params.half_height > 0 ? params.half_height : params.half_window;
+  const auto window = static_cast<std::size_t>((2 * params.half_window + 1) * (2 * half_height + 1));
   for (int s = 0; s < stripes; ++s) {
     DicScratch& sc = ws.scratch[static_cast<std::size_t>(s)];
     for (auto* v : {&sc.f, &sc.sd_x, &sc.sd_xi, &sc.sd_eta, &sc.g, &sc.pos, &sc.taps[0], &sc.taps[1], &sc.taps[2],

@@ -18,7 +18,9 @@
 namespace rutd {
 
 struct DicParams {
-  int half_window = 5;         // px; the window is (2h+1)^2, clipped to the strip at its edges
+  int half_window = 5;         // px; the window is (2h+1) wide and (2 half_height+1) tall, clipped to the strip
+  int half_height = 0;         // px; 0: same as half_window. Taller windows cost no lateral resolution (the
+                               // cross-section averages along rows anyway) and tame low-texture noise
   int max_iterations = 20;     // a pixel that has not converged by then is rejected
   double tolerance_px = 1e-3;  // converged when the warp update moves the window's corners less, px
   int step = 1;                // refine pixels with x % step == 0 and row % row_step == 0; others become NaN
@@ -31,6 +33,10 @@ struct DicParams {
   double max_gradient = 0.5;   // reject when |ux| or |uy| exceed this, px/px (warp degenerates)
   double min_gradient = 1.0;   // reject windows whose RMS horizontal intensity gradient is lower, grey/px
   double min_zncc = 0.8;       // reject when the final zero-normalised cross-correlation is lower
+  // Reject when the estimated standard deviation of the refined disparity exceeds this, px; <= 0: off.
+  // The estimate is the Gauss-Newton covariance: residual variance per sample times the shift term of
+  // the inverse Hessian, i.e. the precision the window's texture and noise actually allow.
+  double max_sigma_px = 0.0;
 };
 
 struct DicStats {

@@ -170,7 +170,9 @@ bool fit_ground(const CrossSection& s, const Profile& p, const Zone& zone, const
   used = zone;
   used.ground_left = left > 0;
   used.ground_right = right > 0;
-  if (double(left + right) * p.grid.dx < params.min_ground_mm) return false;
+  const bool enough_in_all = double(left + right) * p.grid.dx >= params.min_ground_mm;
+  const bool enough_each_side = double(std::min(left, right)) * p.grid.dx >= params.min_ground_each_side_mm;
+  if (!enough_in_all && !enough_each_side) return false;
   return detail::fit_line_robust(ws.a.data(), ws.b.data(), int(ws.a.size()), ws.c, line);
 }
 
@@ -253,6 +255,17 @@ double quality_of(const CrossSection& s, const Opening& o, const Zone& ground, d
   return std::clamp(coverage * sides * noise, 0.0, 1.0);
 }
 
+// Robust (1.4826 MAD) scatter of the smoothed heights of the ground bins (outside the disturbed zone)
+// about the ground line, mm; 0 with fewer than 8 such bins. `scratch` is overwritten.
+double smoothed_ground_sigma(const std::vector<double>& h_fit, const Zone& zone, std::vector<double>& scratch) {
+  scratch.clear();
+  for (int i = 0; i < int(h_fit.size()); ++i) {
+    if ((i < zone.lo || i > zone.hi) && !std::isnan(h_fit[i])) scratch.push_back(std::abs(h_fit[i]));
+  }
+  if (scratch.size() < 8) return 0.0;
+  return 1.4826 * detail::median_inplace(scratch.data(), scratch.data() + scratch.size());
+}
+
 }  // namespace
 
 RutMeasurement extract_rut(const CrossSection& section, const RutParams& params, RutWorkspace& ws) {
@@ -320,11 +333,18 @@ RutMeasurement extract_rut(const CrossSection& section, const RutParams& params,
     ws.a[i] = -ws.h_raw[i];
     ws.b[i] = -ws.h_fit[i];
   }
-  const double delta = std::max(kMinDelta, 5.0 * p.sigma_fit);
+  // Stereo noise is correlated over a matching window (several bins), which p.sigma_fit (from raw-minus-
+  // fit residuals) does not see: the smoothed profile then wanders more than predicted, a too narrow
+  // deepest region is chosen and the noise looks like curvature, both biasing the depth high (+1 mm
+  // measured on low-texture images). The smoothed ground, which should lie on the line, shows the real
+  // wander; the region and the curvature test are widened by its excess over the white-noise figure.
+  const double wander = std::max(p.sigma_fit, smoothed_ground_sigma(ws.h_fit, ground, ws.c));
+  const double inflation = p.sigma_fit > 0.0 ? wander / p.sigma_fit : 1.0;
+  const double delta = std::max(kMinDelta, 5.0 * wander);
   // A flat bottom is the common case: only a curved one (curvature > 2 standard errors) is taken at
   // its vertex. Stricter would bias round bottoms low (flat mean of a curved top), laxer would bias
   // flat bottoms high (the vertex of noise); 2 balances both under 0.1 mm at 0.5 mm noise.
-  out.depth_mm = detail::refine_max(ws.a, ws.b, k, delta, 2, o.left_bin, o.right_bin, 2.0);
+  out.depth_mm = detail::refine_max(ws.a, ws.b, k, delta, 2, o.left_bin, o.right_bin, 2.0 * inflation);
   const double norm = std::sqrt(1.0 + line.m * line.m);
   out.width_mm = (o.right_x - o.left_x) * norm;
   out.center_x_mm = 0.5 * (o.left_x + o.right_x);

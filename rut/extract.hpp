@@ -28,8 +28,14 @@ struct RutParams {
   // A bin is undisturbed ground only if |dZ/dX - ground slope| of the local fit is below this
   // (dimensionless; raised automatically above 4x the slope noise of the fit).
   double ground_gradient_max = 0.15;
-  // At least this much undisturbed ground (sum of both sides) is needed to fit the line (NoGround).
+  // Undisturbed ground needed to fit the line (else NoGround): at least min_ground_mm in all, or at
+  // least min_ground_each_side_mm on both sides of the rut. Ground on both sides pins the slope by the
+  // lever arm between them (a rut and its piles apart), so a little on each side is enough; ground on
+  // one side only must fix the slope by itself. Narrow views (80 mm baseline at 300 mm, 640 px) leave
+  // 5-30 mm per side. 5 mm of 1 mm bins on each side puts the ground level under the rut centre within
+  // about sigma / sqrt(10) of the truth.
   double min_ground_mm = 40.0;
+  double min_ground_each_side_mm = 5.0;
   // Fewer valid bins than this fraction of the section, or than two fit windows -> TooFewPoints.
   double min_valid_fraction = 0.4;
   // reduce_to_cross_section: fraction of samples dropped at each end of every bin before averaging

@@ -141,16 +141,8 @@ double brute_force_hit(const RutShape& shape, const cv::Vec3d& o, const cv::Vec3
   return first;
 }
 
-TEST(SyntheticGeometry, FirstHitMatchesBruteForceWithOcclusionWanderAndTread) {
-  SynthParams p = small_params();
-  p.rig.roll_deg = 8;
-  p.rut.pile_left_mm = 35;   // tall, narrow piles occlude the walls behind them
-  p.rut.pile_right_mm = 25;
-  p.rut.pile_width_mm = 30;
-  p.rut.lateral_offset_mm = 40;
-  p.rut.wander_amplitude_mm = 30;
-  p.rut.wander_wavelength_mm = 700;
-  p.rut.tread = true;
+// Random rays and rays aimed just below each pile crest, against brute_force_hit.
+void expect_first_hits_match_brute_force(const SynthParams& p) {
   const SyntheticRenderer renderer(p);
   const std::uint64_t index = 11;
   const cv::Vec3d o = renderer.camera_centre(Camera::Left, index);
@@ -188,6 +180,47 @@ TEST(SyntheticGeometry, FirstHitMatchesBruteForceWithOcclusionWanderAndTread) {
   std::printf("%d rays, %d cross the surface more than once, worst hit error %.3g mm\n", checked, occluded, worst);
   EXPECT_GT(occluded, 5);  // the test exercises occlusion
   EXPECT_LT(worst, 0.01);
+}
+
+SynthParams occluding_params() {
+  SynthParams p = small_params();
+  p.rig.roll_deg = 8;
+  p.rut.pile_left_mm = 35;  // tall, narrow piles occlude the walls behind them
+  p.rut.pile_right_mm = 25;
+  p.rut.pile_width_mm = 30;
+  p.rut.lateral_offset_mm = 40;
+  return p;
+}
+
+TEST(SyntheticGeometry, FirstHitMatchesBruteForceWithOcclusionWanderAndTread) {
+  SynthParams p = occluding_params();  // the general terrain: marched
+  p.rut.wander_amplitude_mm = 30;
+  p.rut.wander_wavelength_mm = 700;
+  p.rut.tread = true;
+  expect_first_hits_match_brute_force(p);
+}
+
+TEST(SyntheticGeometry, FirstHitMatchesBruteForceOnAStraightRutWithOcclusion) {
+  SynthParams p = occluding_params();  // a straight rut without tread: solved piece by piece
+  expect_first_hits_match_brute_force(p);
+  p.rig.roll_deg = -5, p.rig.pitch_deg = 12;
+  p.rut.bottom_width_mm = 0;  // no flat bottom: the walls meet
+  p.rut.pile_right_mm = 0;
+  p.rut.lateral_offset_mm = -60;
+  expect_first_hits_match_brute_force(p);
+}
+
+TEST(SyntheticGeometry, StraightDownTheRutAxis) {
+  // Rays in a plane of constant world x (d_x = 0 exactly) meet the profile at that x.
+  SynthParams p = small_params();
+  p.rig.baseline_mm = 100;  // left camera at x = -50
+  const SyntheticRenderer renderer(p);
+  const RutTerrain terrain(p.rut, p.rut.depth_mm);
+  const cv::Vec3d o = renderer.camera_centre(Camera::Left, 0);
+  for (double dy : {-0.3, 0.0, 0.4}) {
+    const double t = cast_ray(terrain, o, cv::Vec3d(0, dy, -1));
+    EXPECT_NEAR(o[2] - t, reference_height(p.rut, o[0], o[1] + t * dy), 1e-7);
+  }
 }
 
 TEST(SyntheticGeometry, CalibrationMatchesTheRig) {

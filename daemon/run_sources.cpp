@@ -1,0 +1,91 @@
+#include "daemon/run_sources.hpp"
+
+#include <fmt/format.h>
+
+#include <chrono>
+#include <thread>
+
+#include "drivers/input_error.hpp"
+#include "drivers/recording.hpp"
+#include "drivers/synthetic_source.hpp"
+
+namespace rutd {
+namespace {
+
+// A recording played back as if live: at its own timestamps (paced) and, if asked, over and over. Sequence
+// numbers keep increasing across loops so the pipeline never sees them go backwards.
+class LiveRecordingSource final : public FrameSource {
+ public:
+  LiveRecordingSource(std::string dir, bool paced, bool loop)
+      : dir_(std::move(dir)), paced_(paced), loop_(loop), reader_(std::make_unique<RecordingReader>(dir_)) {}
+
+  SourceStatus next(StereoFrame& frame) override {
+    SourceStatus s = reader_->next(frame);
+    if (s == SourceStatus::EndOfStream && loop_ && reader_->pairs_read() > 0) {
+      seq_offset_ = last_seq_ + 1;
+      reader_ = std::make_unique<RecordingReader>(dir_);
+      started_ = false;
+      s = reader_->next(frame);
+    }
+    if (s != SourceStatus::Ok) return s;
+    if (paced_) pace(frame.t_ns);
+    frame.seq += seq_offset_;
+    last_seq_ = frame.seq;
+    return s;
+  }
+  const StereoCalibration& calibration() const override { return reader_->calibration(); }
+  const std::string& error_message() const override { return reader_->error_message(); }
+
+ private:
+  void pace(std::int64_t t_ns) {
+    const auto now = std::chrono::steady_clock::now();
+    if (!started_) {
+      started_ = true;
+      first_t_ns_ = t_ns;
+      start_ = now;
+      return;
+    }
+    std::this_thread::sleep_until(start_ + std::chrono::nanoseconds(t_ns - first_t_ns_));
+  }
+
+  std::string dir_;
+  bool paced_, loop_;
+  std::unique_ptr<RecordingReader> reader_;
+  bool started_ = false;
+  std::int64_t first_t_ns_ = 0;
+  std::chrono::steady_clock::time_point start_;
+  std::uint64_t seq_offset_ = 0, last_seq_ = 0;
+};
+
+}  // namespace
+
+std::unique_ptr<FrameSource> make_source(const RutdConfig& c) {
+  switch (c.source) {
+    case SourceKind::Synthetic:
+      try {
+        return std::make_unique<SyntheticSource>(c.synthetic);
+      } catch (const std::invalid_argument& e) {
+        throw InputError(c.file, "source.synthetic", e.what());
+      }
+    case SourceKind::Replay:
+      return std::make_unique<LiveRecordingSource>(c.replay.dir, c.replay.paced, c.replay.loop);
+    case SourceKind::Aravis:
+      break;
+  }
+  throw InputError(c.file, "source.type", "aravis cameras are not supported by this build yet");
+}
+
+std::string describe_source(const RutdConfig& c) {
+  switch (c.source) {
+    case SourceKind::Synthetic:
+      return fmt::format("synthetic {}x{} at {} fps", c.synthetic.rig.image_size.width, c.synthetic.rig.image_size.height,
+                         c.synthetic.fps);
+    case SourceKind::Replay:
+      return "recording " + c.replay.dir + (c.replay.paced ? " (paced)" : "") + (c.replay.loop ? " (loop)" : "");
+    case SourceKind::Aravis:
+      return "aravis cameras";
+  }
+  return "?";
+}
+
+}  // namespace rutd

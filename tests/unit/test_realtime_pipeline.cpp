@@ -1,0 +1,690 @@
+// The real-time pipeline with fake stages (sleep, count, gate, fail) and with the real measurer's stages:
+// freshest frame wins, acquisition never waits, stale frames refused, bounded stop, draining at end of
+// stream, every acquired frame accounted for, status at a fixed rate, and no heap allocation per frame.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cstdint>
+#include <cstdio>
+#include <cstdlib>
+#include <limits>
+#include <new>
+#include <semaphore>
+#include <stdexcept>
+#include <thread>
+#include <vector>
+
+#include "drivers/synthetic_renderer.hpp"
+#include "pipeline/realtime_pipeline.hpp"
+
+// ---- Allocation counter -------------------------------------------------------------------------
+// Counts heap allocations made by any thread while g_counting is set. Without ThreadSanitizer the
+// malloc family itself is replaced (OpenCV allocates cv::Mat data with posix_memalign, not operator
+// new); ThreadSanitizer owns malloc, so there only operator new is counted.
+namespace {
+std::atomic<bool> g_counting{false};
+std::atomic<std::uint64_t> g_allocations{0};
+void note_allocation() noexcept {
+  if (g_counting.load(std::memory_order_relaxed)) g_allocations.fetch_add(1, std::memory_order_relaxed);
+}
+}  // namespace
+
+#if defined(__SANITIZE_THREAD__)
+#define RUTD_COUNTS_MALLOC 0
+void* operator new(std::size_t n) {
+  note_allocation();
+  if (void* p = std::malloc(n == 0 ? 1 : n)) return p;
+  throw std::bad_alloc();
+}
+void* operator new[](std::size_t n) { return operator new(n); }
+void* operator new(std::size_t n, const std::nothrow_t&) noexcept {
+  note_allocation();
+  return std::malloc(n == 0 ? 1 : n);
+}
+void* operator new[](std::size_t n, const std::nothrow_t& t) noexcept { return operator new(n, t); }
+// Out of line: inlined into a new/delete pair, GCC would take the free() for a mismatched delete.
+[[gnu::noinline]] void operator delete(void* p) noexcept { std::free(p); }
+[[gnu::noinline]] void operator delete[](void* p) noexcept { std::free(p); }
+[[gnu::noinline]] void operator delete(void* p, std::size_t) noexcept { std::free(p); }
+[[gnu::noinline]] void operator delete[](void* p, std::size_t) noexcept { std::free(p); }
+#else
+#define RUTD_COUNTS_MALLOC 1
+extern "C" {
+void* __libc_malloc(std::size_t);
+void* __libc_calloc(std::size_t, std::size_t);
+void* __libc_realloc(void*, std::size_t);
+void* __libc_memalign(std::size_t, std::size_t);
+void __libc_free(void*);
+
+void* malloc(std::size_t n) {
+  note_allocation();
+  return __libc_malloc(n);
+}
+void* calloc(std::size_t n, std::size_t size) {
+  note_allocation();
+  return __libc_calloc(n, size);
+}
+void* realloc(void* p, std::size_t n) {
+  note_allocation();
+  return __libc_realloc(p, n);
+}
+void free(void* p) { __libc_free(p); }
+void* memalign(std::size_t alignment, std::size_t n) {
+  note_allocation();
+  return __libc_memalign(alignment, n);
+}
+void* aligned_alloc(std::size_t alignment, std::size_t n) {
+  note_allocation();
+  return __libc_memalign(alignment, n);
+}
+int posix_memalign(void** out, std::size_t alignment, std::size_t n) {
+  note_allocation();
+  void* p = __libc_memalign(alignment, n);
+  if (p == nullptr) return ENOMEM;
+  *out = p;
+  return 0;
+}
+}
+#endif
+
+namespace rutd {
+namespace {
+
+using namespace std::chrono_literals;
+using std::chrono::microseconds;
+using std::chrono::milliseconds;
+
+constexpr std::size_t idx(Stage s) { return static_cast<std::size_t>(s); }
+
+// Polls `done` every millisecond up to `limit`; true when it became true.
+template <class F>
+bool eventually(F done, milliseconds limit = 10s) {
+  const auto deadline = std::chrono::steady_clock::now() + limit;
+  while (!done()) {
+    if (std::chrono::steady_clock::now() > deadline) return false;
+    std::this_thread::sleep_for(1ms);
+  }
+  return true;
+}
+
+// ---- Fakes ---------------------------------------------------------------------------------------
+
+struct SourceOptions {
+  microseconds period{0};                                   // 0: as fast as asked
+  std::uint64_t frames = std::numeric_limits<std::uint64_t>::max();  // then EndOfStream
+  std::uint64_t old_every = 0;       // every n-th pair is stamped one second old
+  bool timeouts_only = false;        // a camera that never delivers
+  std::counting_semaphore<>* gate = nullptr;  // one permit per pair; Timeout after 5 ms without
+};
+
+// Tiny pairs on this machine's CLOCK_MONOTONIC. Records when acquisition called next().
+class FakeSource final : public FrameSource {
+ public:
+  explicit FakeSource(SourceOptions options, cv::Size size = {32, 24}) : options_(options) {
+    calibration_.image_size = size;
+    calls_ns.reserve(1 << 16);
+  }
+  SourceStatus next(StereoFrame& f) override {
+    const std::int64_t entered = monotonic_now_ns();
+    if (calls_ns.size() < calls_ns.capacity()) calls_ns.push_back(entered);
+    if (seq_ >= options_.frames) return SourceStatus::EndOfStream;
+    if (options_.timeouts_only) {
+      std::this_thread::sleep_for(2ms);
+      return SourceStatus::Timeout;
+    }
+    if (options_.gate != nullptr && !options_.gate->try_acquire_for(5ms)) return SourceStatus::Timeout;
+    if (options_.period.count() > 0) {
+      if (due_ == std::chrono::steady_clock::time_point{}) due_ = std::chrono::steady_clock::now();
+      due_ += options_.period;
+      std::this_thread::sleep_until(due_);
+    }
+    f.left.create(calibration_.image_size, CV_8UC1);
+    f.right.create(calibration_.image_size, CV_8UC1);
+    f.left.at<std::uint8_t>(0, 0) = static_cast<std::uint8_t>(seq_);
+    f.seq = seq_;
+    const bool old = options_.old_every > 0 && seq_ % options_.old_every == options_.old_every - 1;
+    f.t_ns = monotonic_now_ns() - (old ? 1'000'000'000 : 0);
+    f.clock = ClockKind::Monotonic;
+    ++seq_;
+    delivered.fetch_add(1);
+    return SourceStatus::Ok;
+  }
+  const StereoCalibration& calibration() const override { return calibration_; }
+  const std::string& error_message() const override { return error_; }
+
+  std::vector<std::int64_t> calls_ns;  // acquisition thread; read after stop()
+  std::atomic<std::uint64_t> delivered{0};
+
+ private:
+  SourceOptions options_;
+  StereoCalibration calibration_;
+  std::string error_;
+  std::uint64_t seq_ = 0;
+  std::chrono::steady_clock::time_point due_{};
+};
+
+struct StageOptions {
+  microseconds rectify{0}, match{0}, extract{0};
+  std::uint64_t reject_every = 0;  // rectify refuses every n-th frame
+  std::uint64_t throw_every = 0;   // match throws on every n-th frame
+  std::counting_semaphore<>* match_gate = nullptr;  // the first match waits for a permit
+};
+
+// Stages that take a set time and stamp the frame's seq into the measurement (the sink checks it, so a
+// slot mixed up between frames shows).
+class FakeStages final : public PipelineStages {
+ public:
+  explicit FakeStages(StageOptions options) : options_(options) {}
+  bool rectify(FrameWork& w) override {
+    std::this_thread::sleep_for(options_.rectify);
+    rectified.fetch_add(1);
+    return !(options_.reject_every > 0 && w.frame.seq % options_.reject_every == options_.reject_every - 1);
+  }
+  void match(FrameWork& w) override {
+    match_entered.fetch_add(1);
+    if (options_.match_gate != nullptr && !gate_passed_) {
+      gate_passed_ = options_.match_gate->try_acquire_for(10s);
+    }
+    std::this_thread::sleep_for(options_.match);
+    if (options_.throw_every > 0 && w.frame.seq % options_.throw_every == options_.throw_every - 1)
+      throw std::runtime_error("fake match failure");
+  }
+  void extract(FrameWork& w) override {
+    std::this_thread::sleep_for(options_.extract);
+    w.measurement = RutMeasurement{};
+    w.measurement.status = RutStatus::Ok;
+    w.measurement.depth_mm = static_cast<double>(w.frame.seq);
+  }
+  std::atomic<std::uint64_t> rectified{0}, match_entered{0};
+
+ private:
+  StageOptions options_;
+  bool gate_passed_ = false;  // match thread only
+};
+
+class FakeSink final : public MeasurementSink {
+ public:
+  FakeSink() { seqs.reserve(1 << 16); }
+  void publish(const FrameWork& w, const SensorHealth&) override {
+    if (seqs.size() < seqs.capacity()) seqs.push_back(w.frame.seq);
+    if (w.measurement.status == RutStatus::Ok && w.measurement.depth_mm != static_cast<double>(w.frame.seq))
+      mismatches.fetch_add(1);
+    published.fetch_add(1);
+  }
+  void publish_status(const SensorHealth& h, std::int64_t) override {
+    statuses.fetch_add(1);
+    if (h.no_camera) saw_no_camera.store(true);
+    if (h.stale_frames) saw_stale.store(true);
+    if (h.frame_drops) saw_drops.store(true);
+  }
+  std::vector<std::uint64_t> seqs;  // publish thread; read after stop()
+  std::atomic<std::uint64_t> published{0}, statuses{0}, mismatches{0};
+  std::atomic<bool> saw_no_camera{false}, saw_stale{false}, saw_drops{false};
+};
+
+PipelineConfig test_config() {
+  PipelineConfig c;
+  c.prime_slots = false;
+  c.max_frame_age = 0ms;
+  c.status_period = 20ms;
+  return c;
+}
+
+std::uint64_t accounted(const PipelineStats& s) {
+  return s.published + s.dropped_total() + s.stale_total() + s.rectify_rejected + s.stage_errors;
+}
+
+void print_latency(const char* what, const LatencySummary& l) {
+  std::printf("  %-10s n=%-6llu p50 %8.3f  p90 %8.3f  p99 %8.3f  max %8.3f ms\n", what,
+              static_cast<unsigned long long>(l.count), l.p50_ns * 1e-6, l.p90_ns * 1e-6, l.p99_ns * 1e-6,
+              l.max_ns * 1e-6);
+}
+
+void print_stats(const PipelineStats& s) {
+  std::printf("%s\n", describe(s).c_str());
+  for (std::size_t i = 0; i < kStageCount; ++i)
+    print_latency(std::string(to_string(static_cast<Stage>(i))).c_str(), s.stage_latency[i]);
+  print_latency("end-to-end", s.end_to_end);
+}
+
+// ---- Tests ---------------------------------------------------------------------------------------
+
+TEST(RealtimePipeline, SlowMatchDropsOldestFramesAndAcquisitionKeepsItsOwnRate) {
+  FakeSource source({.period = 5ms});
+  FakeStages stages({.match = 100ms});
+  FakeSink sink;
+  PipelineConfig config = test_config();
+  config.pool_slots = 48;  // room for a whole match period of frames: drops happen at match's input
+  RealtimePipeline pipeline(source, stages, sink, config);
+  pipeline.start();
+  std::this_thread::sleep_for(1500ms);
+  const std::uint64_t progress_mid = pipeline.progress();
+  const std::int64_t last_mid = pipeline.last_publish_ns();
+  std::this_thread::sleep_for(300ms);
+  EXPECT_GT(pipeline.progress(), progress_mid);  // the watchdog's view advances while it measures
+  EXPECT_GT(pipeline.last_publish_ns(), last_mid);
+  pipeline.stop();
+  const PipelineStats s = pipeline.stats();
+  print_stats(s);
+
+  EXPECT_GT(s.dropped[idx(Stage::Match)], 0u);
+  EXPECT_GE(s.published, 5u);
+  EXPECT_LT(s.published * 4, s.acquired);  // most frames superseded, not queued up
+  EXPECT_EQ(sink.mismatches.load(), 0u);
+  EXPECT_TRUE(std::is_sorted(sink.seqs.begin(), sink.seqs.end()));
+  EXPECT_TRUE(std::adjacent_find(sink.seqs.begin(), sink.seqs.end()) == sink.seqs.end());
+  EXPECT_LE(accounted(s), s.acquired);  // the rest were in flight at stop()
+  EXPECT_TRUE(sink.saw_drops.load());
+
+  // Acquisition never waits for the 100 ms match: the source is asked at its own 5 ms rate.
+  std::vector<std::int64_t> gaps;
+  for (std::size_t i = 1; i < source.calls_ns.size(); ++i) gaps.push_back(source.calls_ns[i] - source.calls_ns[i - 1]);
+  ASSERT_GT(gaps.size(), 100u);
+  std::sort(gaps.begin(), gaps.end());
+  const double p50 = gaps[gaps.size() / 2] * 1e-6, p95 = gaps[gaps.size() * 95 / 100] * 1e-6;
+  std::printf("source call gaps: p50 %.2f ms, p95 %.2f ms, max %.2f ms\n", p50, p95, gaps.back() * 1e-6);
+  EXPECT_LT(p95, 50.0);  // a blocked acquisition would wait ~100 ms per match
+  // Freshest frame wins: a published frame waited at most about one match in front of it.
+  EXPECT_LT(s.end_to_end.p50_ns, 400'000'000);
+}
+
+TEST(RealtimePipeline, FreshestQueuedFrameWinsAndTheOlderOnesAreCountedAsDropped) {
+  std::counting_semaphore<> source_gate(0), match_gate(0);
+  FakeSource source({.gate = &source_gate});
+  FakeStages stages({.match_gate = &match_gate});
+  FakeSink sink;
+  RealtimePipeline pipeline(source, stages, sink, test_config());
+  pipeline.start();
+  source_gate.release(1);  // frame 0 enters match and waits at the gate
+  ASSERT_TRUE(eventually([&] { return stages.match_entered.load() == 1; }));
+  for (std::uint64_t n = 2; n <= 6; ++n) {  // frames 1..5 queue in front of match, one by one so that
+    source_gate.release(1);                 // rectify (freshest wins too) sees each of them
+    ASSERT_TRUE(eventually([&] { return stages.rectified.load() == n; })) << "rectified " << stages.rectified.load();
+  }
+  std::this_thread::sleep_for(50ms);  // let rectify hand frame 5 over
+  match_gate.release();
+  ASSERT_TRUE(eventually([&] { return accounted(pipeline.stats()) == 6; }));
+  pipeline.stop();
+  const PipelineStats s = pipeline.stats();
+  // Match finished frame 0, then took frame 5 and gave 1..4 back. (Whether extract still sees frame 0
+  // before frame 5 catches up with it is up to the scheduler: freshest wins there too.)
+  EXPECT_EQ(s.dropped[idx(Stage::Match)], 4u);
+  ASSERT_FALSE(sink.seqs.empty());
+  EXPECT_EQ(sink.seqs.back(), 5u);
+  EXPECT_EQ(s.published + s.dropped[idx(Stage::Extract)] + s.dropped[idx(Stage::Publish)], 2u);
+  EXPECT_EQ(s.acquired, 6u);
+  EXPECT_EQ(accounted(s), 6u);
+}
+
+TEST(RealtimePipeline, FramesTooOldAtAcquisitionAreRefused) {
+  FakeSource source({.frames = 40, .old_every = 2});  // odd seqs stamped one second old
+  FakeStages stages({});
+  FakeSink sink;
+  PipelineConfig config = test_config();
+  config.lossless = true;
+  config.max_frame_age = 200ms;
+  RealtimePipeline pipeline(source, stages, sink, config);
+  pipeline.start();
+  ASSERT_TRUE(pipeline.wait_finished(10s));
+  pipeline.stop();
+  const PipelineStats s = pipeline.stats();
+  EXPECT_EQ(s.stale[idx(Stage::Acquire)], 20u);
+  EXPECT_EQ(s.published, 20u);
+  for (std::uint64_t seq : sink.seqs) EXPECT_EQ(seq % 2, 0u);
+}
+
+TEST(RealtimePipeline, FramesThatAgeInsideThePipelineAreRefusedBeforePublishing) {
+  FakeSource source({.frames = 5});
+  FakeStages stages({.extract = 60ms});
+  FakeSink sink;
+  PipelineConfig config = test_config();
+  config.lossless = true;  // every frame queues in front of the slow extract and ages there
+  config.max_frame_age = 30ms;
+  RealtimePipeline pipeline(source, stages, sink, config);
+  pipeline.start();
+  ASSERT_TRUE(pipeline.wait_finished(10s));
+  pipeline.stop();
+  const PipelineStats s = pipeline.stats();
+  print_stats(s);
+  EXPECT_EQ(s.published, 0u);
+  EXPECT_GE(s.stale[idx(Stage::Publish)], 1u);  // at least the first frame: 60 ms in extract
+  EXPECT_EQ(s.stale[idx(Stage::Extract)] + s.stale[idx(Stage::Publish)], 5u);
+  EXPECT_EQ(accounted(s), 5u);
+}
+
+TEST(RealtimePipeline, StopUnderLoadReturnsWithinOneSecond) {
+  FakeSource source({.period = 1ms});
+  FakeStages stages({.rectify = 20ms, .match = 30ms, .extract = 20ms});
+  FakeSink sink;
+  {
+    RealtimePipeline pipeline(source, stages, sink, test_config());
+    pipeline.start();
+    std::this_thread::sleep_for(300ms);
+    const auto t0 = std::chrono::steady_clock::now();
+    pipeline.stop();
+    const auto took = std::chrono::steady_clock::now() - t0;
+    std::printf("stop() took %.2f ms\n", std::chrono::duration<double, std::milli>(took).count());
+    EXPECT_LT(took, 1s);  // a bound on shutdown, not a speed figure
+    EXPECT_GT(pipeline.stats().published, 0u);
+    EXPECT_FALSE(pipeline.finished());
+  }
+  // Destroying a running pipeline stops it too.
+  const auto t0 = std::chrono::steady_clock::now();
+  {
+    RealtimePipeline pipeline(source, stages, sink, test_config());
+    pipeline.start();
+    std::this_thread::sleep_for(100ms);
+  }
+  EXPECT_LT(std::chrono::steady_clock::now() - t0, 1100ms);
+}
+
+TEST(RealtimePipeline, EndOfStreamDrainsEveryFrameInOrderWhenLossless) {
+  FakeSource source({.frames = 200});
+  FakeStages stages({.match = 200us});
+  FakeSink sink;
+  PipelineConfig config = test_config();
+  config.lossless = true;
+  config.pool_slots = 6;
+  RealtimePipeline pipeline(source, stages, sink, config);
+  pipeline.start();
+  ASSERT_TRUE(pipeline.wait_finished(20s));
+  pipeline.stop();
+  const PipelineStats s = pipeline.stats();
+  EXPECT_TRUE(s.finished);
+  ASSERT_EQ(sink.seqs.size(), 200u);
+  for (std::uint64_t i = 0; i < 200; ++i) EXPECT_EQ(sink.seqs[i], i);
+  EXPECT_EQ(s.dropped_total(), 0u);
+  EXPECT_EQ(s.published, 200u);
+  EXPECT_EQ(s.measured, 200u);
+  EXPECT_EQ(sink.mismatches.load(), 0u);
+}
+
+TEST(RealtimePipeline, EndOfStreamDrainsAndAccountsForEveryFrameWhenFreshestWins) {
+  FakeSource source({.period = 400us, .frames = 600});
+  FakeStages stages({.rectify = 100us, .match = 600us, .extract = 100us, .reject_every = 7, .throw_every = 11});
+  FakeSink sink;
+  PipelineConfig config = test_config();
+  config.pool_slots = 8;
+  RealtimePipeline pipeline(source, stages, sink, config);
+  pipeline.start();
+  ASSERT_TRUE(pipeline.wait_finished(20s));
+  pipeline.stop();
+  const PipelineStats s = pipeline.stats();
+  print_stats(s);
+  EXPECT_TRUE(s.finished);
+  EXPECT_EQ(s.acquired, 600u);
+  EXPECT_EQ(accounted(s), 600u);  // published + dropped + stale + rejected + errors
+  EXPECT_GT(s.rectify_rejected, 0u);
+  EXPECT_GT(s.stage_errors, 0u);
+  EXPECT_GT(s.dropped_total(), 0u);
+  EXPECT_EQ(s.published, sink.published.load());
+  EXPECT_EQ(s.published, s.measured);
+  EXPECT_EQ(sink.mismatches.load(), 0u);
+  EXPECT_TRUE(std::is_sorted(sink.seqs.begin(), sink.seqs.end()));
+  for (std::uint64_t seq : sink.seqs) {
+    EXPECT_NE(seq % 7, 6u);   // rejected by rectify
+    EXPECT_NE(seq % 11, 10u);  // match threw
+  }
+}
+
+TEST(RealtimePipeline, StatusGoesOutAtItsRateWithoutAnyFrameAndFlagsTheMissingCamera) {
+  FakeSource source({.timeouts_only = true});
+  FakeStages stages({});
+  FakeSink sink;
+  PipelineConfig config = test_config();
+  config.status_period = 20ms;
+  config.no_frame_timeout = 50ms;
+  config.log_period = 50ms;
+  std::atomic<int> logs{0};
+  config.on_log = [&](const PipelineStats&) { logs.fetch_add(1); };
+  RealtimePipeline pipeline(source, stages, sink, config);
+  pipeline.start();
+  std::this_thread::sleep_for(500ms);
+  pipeline.stop();
+  const PipelineStats s = pipeline.stats();
+  std::printf("status frames in 500 ms at 20 ms: %llu, log calls: %d\n",
+              static_cast<unsigned long long>(s.status_sent), logs.load());
+  EXPECT_GE(s.status_sent, 5u);  // ~25 expected; generous for a loaded machine
+  EXPECT_EQ(s.status_sent, sink.statuses.load());
+  EXPECT_LE(s.status_sent, 26u);  // never a burst beyond the period
+  EXPECT_GE(logs.load(), 1);
+  EXPECT_TRUE(sink.saw_no_camera.load());
+  EXPECT_TRUE(pipeline.health().no_camera);
+  EXPECT_EQ(s.published, 0u);
+  EXPECT_EQ(pipeline.progress(), 0u);
+  EXPECT_EQ(pipeline.last_publish_ns(), 0);
+  EXPECT_GT(s.source_timeouts, 0u);
+}
+
+TEST(RealtimePipeline, ConfigurationIsCheckedAndStartRunsOnce) {
+  FakeSource source({.frames = 1});
+  FakeStages stages({});
+  FakeSink sink;
+  PipelineConfig config = test_config();
+  config.pool_slots = 3;
+  EXPECT_THROW(RealtimePipeline(source, stages, sink, config), std::invalid_argument);
+  config.pool_slots = RealtimePipeline::kMaxPoolSlots + 1;
+  EXPECT_THROW(RealtimePipeline(source, stages, sink, config), std::invalid_argument);
+  config = test_config();
+  config.status_period = 0ms;
+  EXPECT_THROW(RealtimePipeline(source, stages, sink, config), std::invalid_argument);
+  config = test_config();
+  config.threads[idx(Stage::Match)].fifo_priority = 100;
+  EXPECT_THROW(RealtimePipeline(source, stages, sink, config), std::invalid_argument);
+
+  RealtimePipeline pipeline(source, stages, sink, test_config());
+  pipeline.start();
+  EXPECT_THROW(pipeline.start(), std::logic_error);
+}
+
+TEST(RealtimePipeline, PlacementFailuresAreReportedNotFatal) {
+  FakeSource source({.frames = 10});
+  FakeStages stages({});
+  FakeSink sink;
+  PipelineConfig config = test_config();
+  config.threads[idx(Stage::Rectify)].cpu = 1000;  // no such CPU here
+  RealtimePipeline pipeline(source, stages, sink, config);
+  pipeline.start();
+  ASSERT_TRUE(pipeline.wait_finished(10s));
+  pipeline.stop();
+  ASSERT_EQ(pipeline.placement_warnings().size(), 1u);
+  EXPECT_NE(pipeline.placement_warnings()[0].find("rectify: CPU 1000"), std::string::npos)
+      << pipeline.placement_warnings()[0];
+  EXPECT_EQ(pipeline.stats().published, 10u - pipeline.stats().dropped_total());
+}
+
+// ---- No allocation per frame ---------------------------------------------------------------------
+
+// Runs the pipeline until `warm` frames were published, then counts allocations over the next
+// `counted` acquired frames.
+std::uint64_t allocations_in_steady_state(RealtimePipeline& pipeline, FakeSink& sink, std::uint64_t warm,
+                                          std::uint64_t counted) {
+  pipeline.start();
+  EXPECT_TRUE(eventually([&] { return sink.published.load() >= warm; }, 30s));
+  const std::uint64_t from = pipeline.stats().acquired;
+  g_allocations.store(0);
+  g_counting.store(true);
+  const bool ran = eventually([&] { return pipeline.stats().acquired >= from + counted; }, 60s);
+  g_counting.store(false);
+  const PipelineStats s = pipeline.stats();
+  pipeline.stop();
+  EXPECT_TRUE(ran);
+  std::printf("counted %llu acquired / %llu published frames: %llu allocations (%s)\n",
+              static_cast<unsigned long long>(s.acquired - from), static_cast<unsigned long long>(s.published),
+              static_cast<unsigned long long>(g_allocations.load()),
+              RUTD_COUNTS_MALLOC ? "malloc family" : "operator new only, under ThreadSanitizer");
+  return g_allocations.load();
+}
+
+TEST(RealtimePipeline, FakeStagesAllocateNothingPerFrameWhenFreshestWins) {
+  FakeSource source({.period = 300us});
+  FakeStages stages({.rectify = 100us, .match = 800us, .extract = 100us});
+  FakeSink sink;
+  PipelineConfig config = test_config();
+  config.prime_slots = true;
+  config.log_period = 0ms;
+  RealtimePipeline pipeline(source, stages, sink, config);
+  EXPECT_EQ(allocations_in_steady_state(pipeline, sink, 50, 2000), 0u);
+  EXPECT_GT(pipeline.stats().dropped_total(), 0u);  // the drop paths ran while counting too
+}
+
+TEST(RealtimePipeline, FakeStagesAllocateNothingPerFrameWhenLossless) {
+  FakeSource source({});
+  FakeStages stages({.match = 100us});
+  FakeSink sink;
+  PipelineConfig config = test_config();
+  config.prime_slots = true;
+  config.lossless = true;
+  RealtimePipeline pipeline(source, stages, sink, config);
+  EXPECT_EQ(allocations_in_steady_state(pipeline, sink, 50, 2000), 0u);
+}
+
+// ---- The real measurer's stages -----------------------------------------------------------------
+
+// Synthetic pairs rendered once; the source copies them into the slot's buffers (as a camera driver
+// fills its buffers) and stamps them now.
+class CyclingSource final : public FrameSource {
+ public:
+  CyclingSource(const StereoCalibration& calibration, std::vector<StereoFrame> frames)
+      : calibration_(calibration), frames_(std::move(frames)) {}
+  SourceStatus next(StereoFrame& f) override {
+    const StereoFrame& src = frames_[seq_ % frames_.size()];
+    src.left.copyTo(f.left);
+    src.right.copyTo(f.right);
+    f.seq = seq_++;
+    f.t_ns = monotonic_now_ns();
+    f.clock = ClockKind::Monotonic;
+    std::this_thread::sleep_for(1ms);
+    return SourceStatus::Ok;
+  }
+  const StereoCalibration& calibration() const override { return calibration_; }
+  const std::string& error_message() const override { return error_; }
+
+ private:
+  StereoCalibration calibration_;
+  std::vector<StereoFrame> frames_;
+  std::string error_;
+  std::uint64_t seq_ = 0;
+};
+
+struct RealRig {
+  RealRig() : renderer((sequential_opencv_under_tsan(), params())) {
+    for (std::uint64_t i = 0; i < 3; ++i) {
+      StereoFrame f;
+      renderer.render(i, f);
+      frames.push_back(f);
+    }
+    // The band is estimated once (estimate_band allocates), then fixed as a deployed sensor would.
+    StereoMeasurer probe(renderer.calibration(), MeasurerConfig{});
+    probe.measure(frames[0].left, frames[0].right);
+    config.fixed_band = probe.diagnostics().band;
+  }
+  // OpenCV's parallel_for_ runs on TBB, which ThreadSanitizer cannot see into (false races, crashes):
+  // there OpenCV runs its loops on the calling thread. The pipeline's own threads are unaffected.
+  static void sequential_opencv_under_tsan() {
+#if defined(__SANITIZE_THREAD__)
+    cv::setNumThreads(0);
+#endif
+  }
+  static SynthParams params() {
+    SynthParams p;
+    p.rig.image_size = {320, 240};
+    return p;
+  }
+  SyntheticRenderer renderer;
+  std::vector<StereoFrame> frames;
+  MeasurerConfig config;
+};
+
+TEST(RealtimePipeline, WhichRealStagesAllocatePerFrame) {
+  RealRig rig;
+  const StereoMeasurer measurer(rig.renderer.calibration(), rig.config);
+  MatchContext context = measurer.make_match_context();
+  RutWorkspace workspace;
+  FrameWork w;
+  auto run = [&](int frames, std::uint64_t& rectify, std::uint64_t& match, std::uint64_t& extract) {
+    for (int i = 0; i < frames; ++i) {
+      rig.frames[i % rig.frames.size()].left.copyTo(w.frame.left);
+      rig.frames[i % rig.frames.size()].right.copyTo(w.frame.right);
+      g_allocations.store(0);
+      g_counting.store(true);
+      ASSERT_TRUE(measurer.rectify(w));
+      g_counting.store(false);
+      rectify += g_allocations.exchange(0);
+      g_counting.store(true);
+      measurer.match(w, context);
+      g_counting.store(false);
+      match += g_allocations.exchange(0);
+      g_counting.store(true);
+      measurer.extract(w, workspace);
+      g_counting.store(false);
+      extract += g_allocations.exchange(0);
+    }
+  };
+  std::uint64_t r = 0, m = 0, e = 0;
+  run(5, r, m, e);  // warm-up
+  r = m = e = 0;
+  constexpr int kFrames = 12;
+  run(kFrames, r, m, e);
+  // Of match: the OpenCV engine alone on the same strips.
+  g_allocations.store(0);
+  g_counting.store(true);
+  for (int i = 0; i < kFrames; ++i) context.engine->compute(w.left_strip, w.right_strip, w.diag.band, w.disparity);
+  g_counting.store(false);
+  std::printf("of which the %s engine alone: %.2f allocations per call\n",
+              std::string(to_string(rig.config.engine)).c_str(), double(g_allocations.load()) / kFrames);
+  std::printf("real stages, allocations per frame over %d frames (320x240, %s, DIC %s): rectify %.2f, "
+              "match %.2f, extract %.2f; measurement status %s depth %.2f mm\n",
+              kFrames, std::string(to_string(rig.config.engine)).c_str(), rig.config.dic ? "on" : "off",
+              double(r) / kFrames, double(m) / kFrames, double(e) / kFrames, std::string(to_string(w.measurement.status)).c_str(), w.measurement.depth_mm);
+  EXPECT_EQ(w.measurement.status, RutStatus::Ok);  // the allocation-free path is the full one
+  EXPECT_EQ(r, 0u);
+  EXPECT_EQ(e, 0u);
+}
+
+// Real rectify and extract threads with a match stage that replays the disparity the real matcher
+// computed for the same pair (the OpenCV matchers allocate internally; see the test above).
+class ReplayedMatchStages final : public PipelineStages {
+ public:
+  ReplayedMatchStages(const StereoMeasurer& m, std::vector<cv::Mat> disparities)
+      : measurer_(m), disparities_(std::move(disparities)) {}
+  bool rectify(FrameWork& w) override { return measurer_.rectify(w); }
+  void match(FrameWork& w) override { disparities_[w.frame.seq % disparities_.size()].copyTo(w.disparity); }
+  void extract(FrameWork& w) override { measurer_.extract(w, workspace_); }
+
+ private:
+  const StereoMeasurer& measurer_;
+  std::vector<cv::Mat> disparities_;
+  RutWorkspace workspace_;
+};
+
+TEST(RealtimePipeline, RealRectifyAndExtractAllocateNothingPerFrameInThePipeline) {
+  RealRig rig;
+  const StereoMeasurer measurer(rig.renderer.calibration(), rig.config);
+  std::vector<cv::Mat> disparities;
+  {
+    StereoMeasurer single(rig.renderer.calibration(), rig.config);
+    for (const StereoFrame& f : rig.frames) {
+      single.measure(f.left, f.right);
+      disparities.push_back(single.disparity().clone());
+    }
+    EXPECT_EQ(single.measure(rig.frames[0].left, rig.frames[0].right).status, RutStatus::Ok);
+  }
+  CyclingSource source(rig.renderer.calibration(), rig.frames);
+  ReplayedMatchStages stages(measurer, disparities);
+  FakeSink sink;
+  PipelineConfig config = test_config();
+  config.prime_slots = true;
+  config.lossless = true;
+  RealtimePipeline pipeline(source, stages, sink, config);
+  // Steady state: every slot has seen every pair (the cross-section's buffers grow with the X extent
+  // of the points, so a slot's first sight of a wider pair may still allocate).
+  const std::uint64_t warm = 2 * config.pool_slots * rig.frames.size();
+  EXPECT_EQ(allocations_in_steady_state(pipeline, sink, warm, 300), 0u);
+  print_stats(pipeline.stats());
+}
+
+}  // namespace
+}  // namespace rutd
