@@ -448,7 +448,7 @@ SolidTexture::SolidTexture(Texture kind, std::uint64_t seed) : kind_(kind) {
     case Texture::Snow:  // bright, very low contrast
       levels_ = {grain_tile(rng, {{1.0, 1.0}, {4.0, 0.5}})};
       coarse_texel = 8.7, coarse_weight = 0.3;
-      base_ = 0.85f, contrast_ = 0.0145f;
+      base_ = 0.85f, contrast_ = 0.036f;
       break;
     case Texture::Grass:  // blades and strands
       levels_ = {strand_tile(rng)};

@@ -46,9 +46,11 @@ std::int64_t SyntheticSource::wait_for_slot() {
 
 SourceStatus SyntheticSource::next(StereoFrame& frame) {
   if (options_.frame_count != 0 && produced_ >= options_.frame_count) return SourceStatus::EndOfStream;
-  const std::int64_t t_ns = options_.paced ? wait_for_slot() : 0;
+  if (options_.paced) wait_for_slot();
   renderer_.render(options_.first_index + produced_, frame);
-  if (options_.paced) frame.t_ns = t_ns;
+  // A live pair is stamped when rendering ends: the render stands for the exposure and read-out of a
+  // real camera, and its cost is the simulator's, not latency of the pipeline that measures the pair.
+  if (options_.paced) frame.t_ns = monotonic_ns();
   frame.clock = ClockKind::Monotonic;
   ++produced_;
   return SourceStatus::Ok;

@@ -9,8 +9,8 @@
 namespace rutd {
 
 struct SyntheticSourceOptions {
-  // true: next() paces itself at params.fps on CLOCK_MONOTONIC and stamps each pair with the time it
-  // was due (ClockKind::Monotonic); a late render does not cause a burst, the schedule restarts instead.
+  // true: next() paces itself at params.fps on CLOCK_MONOTONIC and stamps each pair with the time its
+  // render finished (ClockKind::Monotonic); a late render does not cause a burst, the schedule restarts.
   // false: pairs come as fast as they render, stamped with the synthetic timeline index * 1e9 / fps.
   bool paced = true;
   std::uint64_t first_index = 0;  // frame index (seq) of the first pair
@@ -32,7 +32,7 @@ class SyntheticSource : public FrameSource {
   const SyntheticRenderer& renderer() const noexcept { return renderer_; }
 
  private:
-  std::int64_t wait_for_slot();  // sleeps until the next pair is due; returns its CLOCK_MONOTONIC time
+  std::int64_t wait_for_slot();  // sleeps until the next pair is due; returns when it was due (CLOCK_MONOTONIC)
 
   SyntheticRenderer renderer_;
   SyntheticSourceOptions options_;
