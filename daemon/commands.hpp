@@ -9,5 +9,6 @@ void add_run_command(CLI::App& app, int& exit_code);     // measure live, publis
 void add_synth_command(CLI::App& app, int& exit_code);   // render a synthetic recording with truth
 void add_replay_command(CLI::App& app, int& exit_code);  // measure a recording
 void add_calibrate_command(CLI::App& app, int& exit_code);  // chessboard pairs to a calibration file
+void add_bench_command(CLI::App& app, int& exit_code);      // pipeline rate and latency figures
 
 }  // namespace rutd

@@ -9,7 +9,7 @@ namespace rutd {
 
 struct MeasureOptions {
   MeasurerConfig config;
-  std::string engine = "sgbm";
+  std::string engine = "sgbm3way";
   bool no_dic = false;
   int strip_rows = 0;
   int strip_row0 = -1;

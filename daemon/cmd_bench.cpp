@@ -1,32 +1,32 @@
-// End-to-end rate and latency of the real-time pipeline with the real StereoMeasurer on synthetic
-// 640x480 pairs, in strip mode (the default measured strip) and full-frame mode (every row measured).
-// A few pairs are rendered up front and cycled through an in-memory source that copies them into the
-// slot buffers, so rendering is not measured. Two regimes per mode:
+// rutd bench: end-to-end rate and latency of the real-time pipeline with the real measurer on synthetic
+// pairs, in strip mode (the default measured strip) and full-frame mode (every row measured). A few pairs
+// are rendered up front and cycled through an in-memory source that copies them into the slot buffers,
+// so rendering is not measured. Two regimes per mode:
 //   throughput  lossless, the source as fast as the pipeline takes pairs: the sustained rate;
 //   live        freshest frame wins, the source paced like a camera (--fps): capture-to-publish latency.
-// Usage: bench_pipeline [--seconds S] [--fps F] [--no-dic] [--frames N]
+// Figures are printed, never asserted: compare ratios within one run on a shared machine.
 #include <chrono>
 #include <cstdio>
-#include <cstdlib>
-#include <cstring>
+#include <memory>
 #include <string>
 #include <thread>
 #include <vector>
 
+#include "daemon/commands.hpp"
 #include "drivers/synthetic_renderer.hpp"
 #include "pipeline/realtime_pipeline.hpp"
 
+namespace rutd {
 namespace {
 
-using namespace rutd;
-
 struct Options {
-  double seconds = 6;  // per run
+  double seconds = 5;  // per run
   double fps = 30;     // live regime's camera rate
   bool dic = true;
   int frames = 4;      // distinct pairs rendered
+  std::string engine = "sgbm3way";
+  std::string size = "640x480";
 };
-
 class CyclingSource final : public FrameSource {
  public:
   CyclingSource(const StereoCalibration& calibration, const std::vector<StereoFrame>& frames, double fps)
@@ -102,30 +102,19 @@ void run(const char* mode, const char* regime, const SyntheticRenderer& renderer
   std::fflush(stdout);
 }
 
-}  // namespace
-
-int main(int argc, char** argv) {
-  Options o;
-  for (int i = 1; i < argc; ++i) {
-    if (!std::strcmp(argv[i], "--seconds") && i + 1 < argc) o.seconds = std::atof(argv[++i]);
-    else if (!std::strcmp(argv[i], "--fps") && i + 1 < argc) o.fps = std::atof(argv[++i]);
-    else if (!std::strcmp(argv[i], "--frames") && i + 1 < argc) o.frames = std::max(1, std::atoi(argv[++i]));
-    else if (!std::strcmp(argv[i], "--no-dic")) o.dic = false;
-    else {
-      std::fprintf(stderr, "usage: %s [--seconds S] [--fps F] [--frames N] [--no-dic]\n", argv[0]);
-      return 2;
-    }
-  }
+int run_bench(const Options& o) {
   SynthParams p;
-  p.rig.image_size = {640, 480};
-  p.supersample = 1;
+  if (std::sscanf(o.size.c_str(), "%dx%d", &p.rig.image_size.width, &p.rig.image_size.height) != 2 ||
+      p.rig.image_size.width < 64 || p.rig.image_size.height < 64)
+    throw CLI::ValidationError("--size", "expected WIDTHxHEIGHT, got '" + o.size + "'");
   const SyntheticRenderer renderer(p);
   std::vector<StereoFrame> frames(static_cast<std::size_t>(o.frames));
   for (std::size_t i = 0; i < frames.size(); ++i) renderer.render(i, frames[i]);
-  std::printf("640x480 synthetic pairs, truth depth %.2f mm, DIC %s, %u hardware threads, %.0f s per run\n",
-              renderer.truth(0).depth_mm, o.dic ? "on" : "off", std::thread::hardware_concurrency(), o.seconds);
-
+  std::printf("%dx%d synthetic pairs, truth depth %.2f mm, engine %s, DIC %s, %u hardware threads, %.0f s per run\n",
+              p.rig.image_size.width, p.rig.image_size.height, renderer.truth(0).depth_mm, o.engine.c_str(),
+              o.dic ? "on" : "off", std::thread::hardware_concurrency(), o.seconds);
   MeasurerConfig strip;
+  strip.engine = *parse_engine(o.engine);
   strip.dic = o.dic;
   MeasurerConfig full = strip;
   full.strip = StripRoi{0, p.rig.image_size.height};
@@ -135,3 +124,23 @@ int main(int argc, char** argv) {
   run("full", "live", renderer, frames, full, false, o.fps, o);
   return 0;
 }
+
+}  // namespace
+
+void add_bench_command(CLI::App& app, int& exit_code) {
+  auto o = std::make_shared<Options>();
+  CLI::App* cmd = app.add_subcommand("bench", "Print the pipeline's rate and latency on synthetic pairs");
+  cmd->add_option("--seconds", o->seconds, "Length of each run")->check(CLI::Range(0.5, 600.0))->capture_default_str();
+  cmd->add_option("--fps", o->fps, "Camera rate of the live runs")->check(CLI::Range(1.0, 1000.0))->capture_default_str();
+  cmd->add_option("--frames", o->frames, "Distinct pairs rendered and cycled")->check(CLI::Range(1, 100))->capture_default_str();
+  cmd->add_option("--engine", o->engine, "Disparity engine")->check(CLI::IsMember({"bm", "sgbm", "sgbm3way", "hh4", "hh"}))->capture_default_str();
+  cmd->add_option("--size", o->size, "Image size WIDTHxHEIGHT")->capture_default_str();
+  auto no_dic = std::make_shared<bool>(false);
+  cmd->add_flag("--no-dic", *no_dic, "No sub-pixel refinement");
+  cmd->callback([o, no_dic, &exit_code] {
+    o->dic = !*no_dic;
+    exit_code = run_bench(*o);
+  });
+}
+
+}  // namespace rutd
