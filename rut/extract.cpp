@@ -7,8 +7,9 @@
 //     be dragged into a large rut and tilted by an off-centre one).
 //  3. Rut and piles relative to the current line: the deepest smoothed point is the rut bottom; walking
 //     outwards from it to the ground-line crossings (the rut opening) and on over the pile (the Z
-//     minimum, i.e. the turning point closest to the camera) down to its outer foot gives the disturbed
-//     zone. A side without a pile simply ends at the crossing.
+//     minimum, i.e. the turning point closest to the camera) down to its outer foot (where it meets
+//     the line or stops descending) gives the disturbed zone. A side without a pile simply ends at the
+//     crossing.
 //  4. Ground line: robust (Tukey) line fit to low-gradient bins outside the disturbed zone. Steps 3-4
 //     run twice, the second time from the fitted line.
 //  5. Figures per rut/rut_measurement.hpp, from fits rather than extreme samples where noise would bias
@@ -122,13 +123,23 @@ int next_valid(const std::vector<double>& h, int j, int dir) {
   return -1;
 }
 
-// From the opening's bin, climbs the pile while the profile ahead still rises by more than tau,
-// then descends while it still falls by more than tau: the pile's outer foot. Without a pile both
-// walks stop at once. Returns the foot bin, or -1 if the walk ran off the data.
-int pile_foot(const std::vector<double>& h, int start, int dir, int look, double tau) {
+// From the opening's bin, climbs the pile while the profile ahead still rises by more than tau, then
+// descends to the pile's outer foot: while the profile ahead still falls by more than tau, the profile
+// is still above the line by more than tau, and - once below half the pile's top - still falls faster
+// than ground can slope (descent rate dir * (slope - m) of the local fit above grad_max). The look-ahead
+// alone would walk on over ground whose line is still tilted (first pass) or whose last bins drift at
+// the data edge, claiming all the ground of a narrow view; the ground is where the pile has come down
+// to the line or has stopped descending. Without a pile both walks stop at once. Returns the foot bin,
+// or -1 if the walk ran off the data.
+int pile_foot(const std::vector<double>& h, const std::vector<double>& slope, double m,
+              double grad_max, int start, int dir, int look, double tau) {
   int j = std::isnan(h[start]) ? next_valid(h, start, dir) : start;
-  for (int sign : {+1, -1}) {
-    while (j >= 0 && ahead_exceeds(h, j, dir, look, tau, sign)) j = next_valid(h, j, dir);
+  while (j >= 0 && ahead_exceeds(h, j, dir, look, tau, +1)) j = next_valid(h, j, dir);
+  const double top = j >= 0 ? h[j] : 0.0;
+  while (j >= 0 && h[j] > tau && ahead_exceeds(h, j, dir, look, tau, -1)) {
+    const bool flat = !std::isnan(slope[j]) && dir * (slope[j] - m) < grad_max;
+    if (flat && h[j] < 0.5 * top) break;
+    j = next_valid(h, j, dir);
   }
   return j;
 }
@@ -138,14 +149,26 @@ struct Zone {
   bool ground_left = false, ground_right = false;
 };
 
-Zone disturbed_zone(const std::vector<double>& h_fit, const Opening& o, const Profile& p) {
+// Bins a gradient must stay below to count as ground (dimensionless); see RutParams.
+double ground_gradient(const RutParams& params, const Profile& p) {
+  return std::max(params.ground_gradient_max, 4.0 * p.slope_noise);
+}
+
+Zone disturbed_zone(const RutWorkspace& ws, const detail::Line& line, const Opening& o,
+                    const Profile& p, double grad_max) {
   const double tau = std::max(kMinStep, 5.0 * p.sigma_fit);
   const int look = 2 * p.half;
   Zone z;
-  const int left_foot = o.left_edge ? -1 : pile_foot(h_fit, o.left_bin, -1, look, tau);
-  const int right_foot = o.right_edge ? -1 : pile_foot(h_fit, o.right_bin, +1, look, tau);
-  z.lo = left_foot < 0 ? 0 : std::max(0, left_foot - p.half);
-  z.hi = right_foot < 0 ? p.grid.n - 1 : std::min(p.grid.n - 1, right_foot + p.half);
+  const int left_foot =
+      o.left_edge ? -1 : pile_foot(ws.h_fit, ws.slope, line.m, grad_max, o.left_bin, -1, look, tau);
+  const int right_foot =
+      o.right_edge ? -1 : pile_foot(ws.h_fit, ws.slope, line.m, grad_max, o.right_bin, +1, look, tau);
+  // No margin beyond the feet: the walk stops only where the local fit (which reaches half a window
+  // inwards) has flattened or come down to the line, and fit_ground drops every bin whose local fit
+  // still sees the flank (gradient test), so a margin of half a window would only discard the ground
+  // a narrow view has.
+  z.lo = left_foot < 0 ? 0 : left_foot;
+  z.hi = right_foot < 0 ? p.grid.n - 1 : right_foot;
   z.ground_left = left_foot >= 0 && z.lo > 0;
   z.ground_right = right_foot >= 0 && z.hi < p.grid.n - 1;
   return z;
@@ -155,7 +178,7 @@ Zone disturbed_zone(const std::vector<double>& h_fit, const Opening& o, const Pr
 // too little ground (the caller reports NoGround).
 bool fit_ground(const CrossSection& s, const Profile& p, const Zone& zone, const RutParams& params,
                 RutWorkspace& ws, detail::Line& line, Zone& used) {
-  const double grad_max = std::max(params.ground_gradient_max, 4.0 * p.slope_noise);
+  const double grad_max = ground_gradient(params, p);
   ws.a.clear();
   ws.b.clear();
   int left = 0, right = 0;
@@ -310,7 +333,7 @@ RutMeasurement extract_rut(const CrossSection& section, const RutParams& params,
       break;
     }
     const Opening o = find_opening(ws.h_fit, p.grid, k);
-    if (!fit_ground(section, p, disturbed_zone(ws.h_fit, o, p), params, ws, line, ground)) {
+    if (!fit_ground(section, p, disturbed_zone(ws, line, o, p, ground_gradient(params, p)), params, ws, line, ground)) {
       out.status = RutStatus::NoGround;
       return out;
     }
