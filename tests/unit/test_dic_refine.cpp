@@ -12,6 +12,7 @@
 
 #include "pipeline/dic_refine.hpp"
 #include "pipeline/disparity.hpp"
+#include "test_support.hpp"
 
 namespace rutd {
 namespace {
