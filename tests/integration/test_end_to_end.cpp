@@ -27,6 +27,7 @@ struct Case {
   double baseline_mm;
   double height_mm;
   int frames;
+  int seed;
 };
 
 std::ostream& operator<<(std::ostream& os, const Case& c) { return os << c.name; }
@@ -40,7 +41,7 @@ TEST_P(EndToEnd, DepthWithinOneMillimetreOfTruth) {
   std::ostringstream synth;
   synth << "synth " << rec << " --frames " << c.frames << " --depth " << c.depth_mm << " --size " << c.size
         << " --texture " << c.texture << " --roll " << c.roll_deg << " --baseline " << c.baseline_mm
-        << " --height " << c.height_mm << " --seed 7";
+        << " --height " << c.height_mm << " --seed " << c.seed;
   ASSERT_EQ(test::run_rutd(synth.str()), 0);
   const std::string csv = (tmp.path() / "m.csv").string();
   ASSERT_EQ(test::run_rutd("replay " + rec + " --out " + csv), 0);
@@ -58,17 +59,23 @@ TEST_P(EndToEnd, DepthWithinOneMillimetreOfTruth) {
   }
 }
 
-// Each depth of the seed's Table 3 at both resolutions, both textures, both rolls and the rig extremes.
+// Each depth of the seed's Table 3 at both resolutions, both textures, both rolls and the rig extremes,
+// plus mud and grass; a different random texture and noise per case.
 const Case kCases[] = {
-    {"d30_640_sand_r0_b40h400", 30, "640x480", "sand", 0, 40, 400, 3},
-    {"d40_640_snow_r3_b80h300", 40, "640x480", "snow", 3, 80, 300, 3},
-    {"d50_640_sand_r3_b60h350", 50, "640x480", "sand", 3, 60, 350, 3},
-    {"d60_640_snow_r0_b60h350", 60, "640x480", "snow", 0, 60, 350, 3},
-    {"d60_640_sand_r3_b80h300", 60, "640x480", "sand", 3, 80, 300, 3},
-    {"d30_1280_snow_r3_b80h300", 30, "1280x1024", "snow", 3, 80, 300, 2},
-    {"d40_1280_sand_r0_b40h400", 40, "1280x1024", "sand", 0, 40, 400, 2},
-    {"d50_1280_snow_r0_b80h300", 50, "1280x1024", "snow", 0, 80, 300, 2},
-    {"d60_1280_sand_r3_b40h400", 60, "1280x1024", "sand", 3, 40, 400, 2},
+    {"d30_640_sand_r0_b40h400", 30, "640x480", "sand", 0, 40, 400, 3, 7},
+    {"d40_640_snow_r3_b80h300", 40, "640x480", "snow", 3, 80, 300, 3, 8},
+    {"d50_640_sand_r3_b60h350", 50, "640x480", "sand", 3, 60, 350, 3, 9},
+    {"d60_640_snow_r0_b60h350", 60, "640x480", "snow", 0, 60, 350, 3, 10},
+    {"d60_640_sand_r3_b80h300", 60, "640x480", "sand", 3, 80, 300, 3, 11},
+    {"d30_640_snow_r3_b40h400", 30, "640x480", "snow", 3, 40, 400, 3, 12},
+    {"d50_640_snow_r0_b80h300", 50, "640x480", "snow", 0, 80, 300, 3, 13},
+    {"d40_640_mud_r3_b60h350", 40, "640x480", "mud", 3, 60, 350, 3, 14},
+    {"d50_640_grass_r0_b40h400", 50, "640x480", "grass", 0, 40, 400, 3, 15},
+    {"d30_1280_snow_r3_b80h300", 30, "1280x1024", "snow", 3, 80, 300, 2, 16},
+    {"d40_1280_sand_r0_b40h400", 40, "1280x1024", "sand", 0, 40, 400, 2, 17},
+    {"d50_1280_snow_r0_b80h300", 50, "1280x1024", "snow", 0, 80, 300, 2, 18},
+    {"d60_1280_sand_r3_b40h400", 60, "1280x1024", "sand", 3, 40, 400, 2, 19},
+    {"d60_1280_snow_r3_b60h350", 60, "1280x1024", "snow", 3, 60, 350, 2, 20},
 };
 
 INSTANTIATE_TEST_SUITE_P(Matrix, EndToEnd, ::testing::ValuesIn(kCases),
