@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "daemon/commands.hpp"
+#include "daemon/dimensions.hpp"
 #include "drivers/synthetic_renderer.hpp"
 #include "pipeline/realtime_pipeline.hpp"
 
@@ -104,9 +105,9 @@ void run(const char* mode, const char* regime, const SyntheticRenderer& renderer
 
 int run_bench(const Options& o) {
   SynthParams p;
-  if (std::sscanf(o.size.c_str(), "%dx%d", &p.rig.image_size.width, &p.rig.image_size.height) != 2 ||
-      p.rig.image_size.width < 64 || p.rig.image_size.height < 64)
-    throw CLI::ValidationError("--size", "expected WIDTHxHEIGHT, got '" + o.size + "'");
+  const auto size = parse_dimensions(o.size, 64, 8192);
+  if (!size) throw CLI::ValidationError("--size", "expected WIDTHxHEIGHT between 64x64 and 8192x8192, got '" + o.size + "'");
+  p.rig.image_size = *size;
   const SyntheticRenderer renderer(p);
   std::vector<StereoFrame> frames(static_cast<std::size_t>(o.frames));
   for (std::size_t i = 0; i < frames.size(); ++i) renderer.render(i, frames[i]);

@@ -7,6 +7,7 @@
 #include <sstream>
 
 #include "daemon/commands.hpp"
+#include "daemon/dimensions.hpp"
 #include "pipeline/stereo_calibrate.hpp"
 
 namespace rutd {
@@ -21,12 +22,9 @@ struct CalibrateOptions {
 };
 
 cv::Size parse_board(const std::string& text) {
-  int w = 0, h = 0;
-  char x = 0;
-  std::istringstream in(text);
-  if (!(in >> w >> x >> h) || x != 'x' || w < 2 || h < 2 || w > 100 || h > 100 || !in.eof())
-    throw CLI::ValidationError("--board", "expected inner corners COLSxROWS such as 9x6, got '" + text + "'");
-  return {w, h};
+  const auto board = parse_dimensions(text, 2, 100);
+  if (!board) throw CLI::ValidationError("--board", "expected inner corners COLSxROWS such as 9x6, got '" + text + "'");
+  return *board;
 }
 
 int run_calibrate(CalibrateOptions o) {

@@ -15,6 +15,7 @@
 
 #include "daemon/commands.hpp"
 #include "daemon/config.hpp"
+#include "daemon/dimensions.hpp"
 #include "daemon/run_sources.hpp"
 #include "daemon/service_notifier.hpp"
 #include "daemon/supervisor.hpp"
@@ -58,10 +59,9 @@ RutdConfig effective_config(const RunOptions& o) {
     c.replay.dir = *o.replay_dir;
   }
   if (o.size) {
-    int w = 0, h = 0;
-    if (std::sscanf(o.size->c_str(), "%dx%d", &w, &h) != 2 || w < 64 || h < 64 || w > 8192 || h > 8192)
-      throw CLI::ValidationError("--size", "expected WIDTHxHEIGHT, got '" + *o.size + "'");
-    c.synthetic.rig.image_size = {w, h};
+    const auto size = parse_dimensions(*o.size, 64, 8192);
+    if (!size) throw CLI::ValidationError("--size", "expected WIDTHxHEIGHT between 64x64 and 8192x8192, got '" + *o.size + "'");
+    c.synthetic.rig.image_size = *size;
   }
   return c;
 }

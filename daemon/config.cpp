@@ -8,6 +8,7 @@
 #include <sstream>
 
 #include "daemon/default_config.hpp"  // generated from config/rutd.yaml
+#include "daemon/dimensions.hpp"
 #include "drivers/input_error.hpp"
 
 namespace rutd {
@@ -138,12 +139,9 @@ std::function<std::string(const T&)> in_range(T lo, T hi) {
 }
 
 std::string parse_size(const std::string& s, cv::Size& size) {
-  int w = 0, h = 0;
-  char x = 0;
-  std::istringstream in(s);
-  if (!(in >> w >> x >> h) || x != 'x' || !in.eof() || w < 64 || h < 64 || w > 8192 || h > 8192)
-    return "expected WIDTHxHEIGHT between 64x64 and 8192x8192, got '" + s + "'";
-  size = {w, h};
+  const auto parsed = parse_dimensions(s, 64, 8192);
+  if (!parsed) return "expected WIDTHxHEIGHT between 64x64 and 8192x8192, got '" + s + "'";
+  size = *parsed;
   return {};
 }
 

@@ -1,5 +1,7 @@
 #include "daemon/synth_options.hpp"
 
+#include "daemon/dimensions.hpp"
+
 #include <charconv>
 #include <sstream>
 
@@ -7,12 +9,9 @@ namespace rutd {
 namespace {
 
 cv::Size parse_size(const std::string& text) {
-  int w = 0, h = 0;
-  char x = 0;
-  std::istringstream in(text);
-  if (!(in >> w >> x >> h) || x != 'x' || w < 64 || h < 64 || w > 8192 || h > 8192 || !in.eof())
-    throw CLI::ValidationError("--size", "expected WIDTHxHEIGHT between 64x64 and 8192x8192, got '" + text + "'");
-  return {w, h};
+  const auto size = parse_dimensions(text, 64, 8192);
+  if (!size) throw CLI::ValidationError("--size", "expected WIDTHxHEIGHT between 64x64 and 8192x8192, got '" + text + "'");
+  return *size;
 }
 
 // "0:30,100:60" -> knots (frame 0: 30 mm, frame 100: 60 mm), frames strictly increasing.

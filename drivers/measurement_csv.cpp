@@ -9,6 +9,7 @@
 #include <limits>
 #include <ostream>
 
+#include "drivers/csv_fields.hpp"
 #include "drivers/input_error.hpp"
 
 namespace rutd {
@@ -56,23 +57,7 @@ void append_integer(std::string& line, Int value) {
   line.append(text, result.ptr);
 }
 
-std::size_t split_fields(std::string_view line, std::string_view* fields, std::size_t max) {
-  std::size_t count = 0, start = 0;
-  while (true) {
-    const std::size_t comma = line.find(',', start);
-    const std::size_t end = comma == std::string_view::npos ? line.size() : comma;
-    if (count < max) fields[count] = line.substr(start, end - start);
-    ++count;
-    if (comma == std::string_view::npos) return count;
-    start = comma + 1;
-  }
-}
 
-template <typename Number>
-bool parse_number(std::string_view text, Number& value) {
-  const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), value);
-  return !text.empty() && ec == std::errc() && end == text.data() + text.size();
-}
 
 bool parse_status(std::string_view text, RutStatus& status) {
   for (int i = 0; i < kStatusCount; ++i) {
@@ -95,13 +80,13 @@ class RowParser {
 
   MeasurementRow parse(std::string_view line) const {
     std::string_view f[kColumnCount];
-    const std::size_t count = split_fields(line, f, kColumnCount);
+    const std::size_t count = split_csv_fields(line, f, kColumnCount);
     if (count != kColumnCount) {
       fail("expected " + std::to_string(kColumnCount) + " fields, found " + std::to_string(count));
     }
     MeasurementRow row;
-    if (!parse_number(f[0], row.seq)) fail("seq '" + std::string(f[0]) + "' is not a non-negative integer");
-    if (!parse_number(f[1], row.t_ns)) fail("t_ns '" + std::string(f[1]) + "' is not an integer");
+    if (!parse_csv_number(f[0], row.seq)) fail("seq '" + std::string(f[0]) + "' is not a non-negative integer");
+    if (!parse_csv_number(f[1], row.t_ns)) fail("t_ns '" + std::string(f[1]) + "' is not an integer");
     if (!parse_status(f[2], row.measurement.status)) fail("unknown status '" + std::string(f[2]) + "'");
     for (int i = 0; i < kMeasurementFieldCount; ++i) {
       row.measurement.*kFields[i].member = parse_field(f[3 + i], row.measurement.status, i);
@@ -114,7 +99,7 @@ class RowParser {
     if (text.empty()) return std::numeric_limits<double>::quiet_NaN();
     const std::string name = kFields[index].name;
     double value = 0.0;
-    if (!parse_number(text, value) || !std::isfinite(value)) {
+    if (!parse_csv_number(text, value) || !std::isfinite(value)) {
       fail(name + " '" + std::string(text) + "' is not a finite number");
     }
     if (!measurement_field_valid(status, static_cast<MeasurementField>(index))) {

@@ -16,6 +16,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "drivers/csv_fields.hpp"
 #include "drivers/input_error.hpp"
 
 namespace rutd {
@@ -127,26 +128,7 @@ bool read_file(const std::string& path, std::vector<char>& bytes) {
   return ok;
 }
 
-template <typename Int>
-bool parse_integer(std::string_view text, Int& value) {
-  if (text.empty()) return false;
-  const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), value);
-  return ec == std::errc() && end == text.data() + text.size();
-}
 
-// Splits at commas into at most `max` fields; returns the number of fields the line has.
-std::size_t split_fields(std::string_view line, std::string_view* fields, std::size_t max) {
-  std::size_t count = 0;
-  std::size_t start = 0;
-  while (true) {
-    const std::size_t comma = line.find(',', start);
-    const std::size_t end = comma == std::string_view::npos ? line.size() : comma;
-    if (count < max) fields[count] = line.substr(start, end - start);
-    ++count;
-    if (comma == std::string_view::npos) return count;
-    start = comma + 1;
-  }
-}
 
 }  // namespace
 
@@ -353,17 +335,17 @@ bool RecordingReader::check_pair(const StereoFrame& frame) {
 
 RecordingReader::LineResult RecordingReader::read_pair(std::string_view line, StereoFrame& frame) {
   std::string_view fields[4];
-  const std::size_t count = split_fields(line, fields, 4);
+  const std::size_t count = split_csv_fields(line, fields, 4);
   if (count != 4) {
     return bad(count < 4 ? LineResult::TooFewFields : LineResult::Bad,
                "expected 4 fields (seq,t_ns,left,right), found " + std::to_string(count));
   }
   std::uint64_t seq = 0;
   std::int64_t t_ns = 0;
-  if (!parse_integer(fields[0], seq)) {
+  if (!parse_csv_number(fields[0], seq)) {
     return bad(LineResult::Bad, "seq '" + std::string(fields[0]) + "' is not a non-negative integer");
   }
-  if (!parse_integer(fields[1], t_ns)) {
+  if (!parse_csv_number(fields[1], t_ns)) {
     return bad(LineResult::Bad, "t_ns '" + std::string(fields[1]) + "' is not an integer");
   }
   if (have_previous_ && seq <= previous_seq_) {

@@ -6,6 +6,7 @@
 #include <cerrno>
 #include <cstring>
 
+#include "drivers/csv_fields.hpp"
 #include "drivers/input_error.hpp"
 
 namespace rutd {
@@ -30,30 +31,20 @@ std::string line_field(std::size_t line) { return "line " + std::to_string(line)
 template <class T>
 T parse(std::string_view text, const std::string& path, std::size_t line, std::size_t field) {
   T value{};
-  const auto [ptr, ec] = std::from_chars(text.data(), text.data() + text.size(), value);
-  if (text.empty() || ec != std::errc() || ptr != text.data() + text.size()) {
+  if (!parse_csv_number(text, value)) {
     throw InputError(path, line_field(line),
                      "field '" + std::string(kNames[field]) + "': not a number: '" + std::string(text) + "'");
   }
   return value;
 }
 
-std::vector<std::string_view> split(std::string_view text) {
-  std::vector<std::string_view> fields;
-  std::size_t start = 0;
-  for (;;) {
-    const std::size_t comma = text.find(',', start);
-    fields.push_back(text.substr(start, comma == std::string_view::npos ? comma : comma - start));
-    if (comma == std::string_view::npos) return fields;
-    start = comma + 1;
-  }
-}
 
 RutTruth parse_line(std::string_view text, const std::string& path, std::size_t line, std::int64_t& t_ns) {
-  const std::vector<std::string_view> f = split(text);
-  if (f.size() != kFields) {
+  std::string_view f[kFields];
+  const std::size_t count = split_csv_fields(text, f, kFields);
+  if (count != kFields) {
     throw InputError(path, line_field(line),
-                     "expected " + std::to_string(kFields) + " fields, found " + std::to_string(f.size()));
+                     "expected " + std::to_string(kFields) + " fields, found " + std::to_string(count));
   }
   RutTruth t;
   t.index = parse<std::uint64_t>(f[0], path, line, 0);

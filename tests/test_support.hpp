@@ -5,6 +5,8 @@
 
 #include <cstdlib>
 #include <filesystem>
+#include <fstream>
+#include <sstream>
 #include <stdexcept>
 #include <string>
 
@@ -38,13 +40,29 @@ class TempDir {
   std::filesystem::path path_;
 };
 
+// Runs `command` through the shell; its exit status, or -1 if it did not exit normally.
+inline int run_shell(const std::string& command) {
+  const int status = std::system(command.c_str());
+  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
+// A path in single quotes for a shell command line (paths here contain no quotes).
+inline std::string quoted(const std::filesystem::path& p) { return "'" + p.string() + "'"; }
+
+// The whole file as text; empty if it cannot be read.
+inline std::string read_text(const std::filesystem::path& p) {
+  std::ifstream in(p);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
 // Runs `rutd ARGS` through the shell (ARGS must be shell-safe) and returns its exit status, or -1 if it
 // did not exit normally. stderr_file, when given, receives the program's standard error.
 inline int run_rutd(const std::string& args, const std::string& stderr_file = {}) {
-  std::string cmd = std::string("'") + RUTD_BINARY + "' " + args;
-  if (!stderr_file.empty()) cmd += " 2>'" + stderr_file + "'";
-  const int status = std::system(cmd.c_str());
-  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  std::string cmd = test::quoted(RUTD_BINARY) + " " + args;
+  if (!stderr_file.empty()) cmd += " 2>" + test::quoted(stderr_file);
+  return run_shell(cmd);
 }
 
 }  // namespace rutd::test

@@ -20,8 +20,14 @@
 #include "drivers/can_encoder.hpp"
 #include "drivers/candump_log.hpp"
 
+#include "test_support.hpp"
+
 namespace rutd {
 namespace {
+
+using test::quoted;
+using test::read_text;
+using test::run_shell;
 
 namespace fs = std::filesystem;
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
@@ -40,19 +46,8 @@ fs::path make_temp_dir() {
   return dir;
 }
 
-std::string quoted(const fs::path& p) { return "'" + p.string() + "'"; }
 
-int run_shell(const std::string& command) {
-  const int status = std::system(command.c_str());
-  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-}
 
-std::string read_text(const fs::path& p) {
-  std::ifstream in(p);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
 
 std::string decoder_unavailable() {
   if (!fs::exists(kPython)) return std::string(kPython) + " is needed (with python3-canmatrix)";

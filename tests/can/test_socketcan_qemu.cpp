@@ -23,8 +23,14 @@
 
 #include "drivers/candump_log.hpp"
 
+#include "test_support.hpp"
+
 namespace rutd {
 namespace {
+
+using test::quoted;
+using test::read_text;
+using test::run_shell;
 
 namespace fs = std::filesystem;
 constexpr const char* kPython = "/usr/bin/python3";
@@ -33,19 +39,8 @@ constexpr int kBootTimeoutS = 150;  // rutd's own run takes 30-60 s under emulat
 fs::path bin_dir() { return fs::path(RUTD_BINARY).parent_path(); }
 fs::path cache_dir() { return bin_dir().parent_path() / "can-qemu"; }
 fs::path qemu_dir() { return fs::path(RUTD_SOURCE_DIR) / "tests" / "can" / "qemu"; }
-std::string quoted(const fs::path& p) { return "'" + p.string() + "'"; }
 
-int run_shell(const std::string& command) {
-  const int status = std::system(command.c_str());
-  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-}
 
-std::string read_text(const fs::path& p) {
-  std::ifstream in(p);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
 
 std::vector<std::string> lines_of(const std::string& text) {
   std::vector<std::string> lines;

@@ -29,8 +29,12 @@
 
 extern char** environ;
 
+#include "test_support.hpp"
+
 namespace rutd {
 namespace {
+
+using test::read_text;
 
 namespace fs = std::filesystem;
 
@@ -66,13 +70,6 @@ StereoFrame make_pair(std::uint64_t seq, int type, cv::Size size = kSize) {
 
 bool same_image(const cv::Mat& a, const cv::Mat& b) {
   return a.size() == b.size() && a.type() == b.type() && cv::norm(a, b, cv::NORM_INF) == 0.0;
-}
-
-std::string read_text(const fs::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::ostringstream text;
-  text << in.rdbuf();
-  return text.str();
 }
 
 void write_text(const fs::path& path, const std::string& text) {

@@ -11,17 +11,10 @@
 namespace rutd {
 namespace {
 
-std::string read_file(const std::string& path) {
-  std::ifstream in(path);
-  std::ostringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
-
 TEST(SystemdUnit, VerifiesWithSystemdAnalyze) {
   if (std::system("command -v systemd-analyze >/dev/null 2>&1") != 0)
     GTEST_SKIP() << "needs systemd-analyze (Debian package systemd)";
-  std::string unit = read_file(std::string(RUTD_SOURCE_DIR) + "/systemd/rutd.service.in");
+  std::string unit = test::read_text(std::string(RUTD_SOURCE_DIR) + "/systemd/rutd.service.in");
   ASSERT_FALSE(unit.empty());
   unit = std::regex_replace(unit, std::regex("@CMAKE_INSTALL_FULL_BINDIR@/rutd"), RUTD_BINARY);
   unit = std::regex_replace(unit, std::regex("@RUTD_CONFIG_DIR@"), "/etc/rutd");
@@ -32,7 +25,7 @@ TEST(SystemdUnit, VerifiesWithSystemdAnalyze) {
   std::ofstream(path) << unit;
   const std::string err = (tmp.path() / "err.txt").string();
   const int status = std::system(("systemd-analyze verify '" + path + "' 2>'" + err + "'").c_str());
-  const std::string messages = read_file(err);
+  const std::string messages = test::read_text(err);
   EXPECT_EQ(status, 0) << messages;
   EXPECT_EQ(messages.find("rutd.service"), std::string::npos) << messages;
   // The properties the product relies on.
