@@ -77,7 +77,7 @@ GuestRun run_guest(const std::string& job) {
   const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
   const fs::path jobs = cache_dir() / "jobs";
   fs::create_directories(jobs);
-  // The job lives in the build tree: the guest sees the host's files there, but not the host's /tmp.
+  // The job lives in the build tree, which the guest sees read-only through the shared host root.
   const fs::path job_file = jobs / (std::string(info->name()) + "-" + std::to_string(::getpid()) + ".sh");
   std::ofstream(job_file) << job;
   const fs::path console = jobs / (job_file.stem().string() + ".console");
@@ -243,7 +243,7 @@ TEST_F(GuestKernel, CandumpRecordsWhatTheSinkSent) {
   const fs::path tests = bin_dir() / "test_socketcan";
   ASSERT_TRUE(fs::exists(tests)) << "build the test_socketcan target first: " << tests;
   const GuestRun run = boot("exec /bin/sh " + quoted(qemu_dir() / "guest-candump.sh") +
-                            " /tmp/sent.log env RUTD_SOCKETCAN_SENT_LOG=/tmp/sent.log " + quoted(tests) +
+                            " /mnt/sent.log env RUTD_SOCKETCAN_SENT_LOG=/mnt/sent.log " + quoted(tests) +
                             " --gtest_filter=SocketCanSinkOnKernel.EncodedFramesArriveUnchanged\n");
   SKIP_IF_NO_GUEST();
   ASSERT_TRUE(guest_completed(run));
@@ -264,9 +264,9 @@ bool rutd_has_socketcan_option() {
 TEST_F(GuestKernel, RutdSendsOnVcanWhatItLogs) {
   fs::create_directories(cache_dir());
   if (!rutd_has_socketcan_option()) GTEST_SKIP() << "`rutd run` has no --socketcan option yet";
-  const GuestRun run = boot("exec /bin/sh " + quoted(qemu_dir() / "guest-candump.sh") + " /tmp/rutd.log " +
+  const GuestRun run = boot("exec /bin/sh " + quoted(qemu_dir() / "guest-candump.sh") + " /mnt/rutd.log " +
                             quoted(RUTD_BINARY) + " run --frames 5 --size 320x240 --engine bm --no-dic"
-                            " --socketcan vcan0 --candump /tmp/rutd.log\n");
+                            " --socketcan vcan0 --candump /mnt/rutd.log\n");
   SKIP_IF_NO_GUEST();
   ASSERT_TRUE(guest_completed(run));
   check_candump_matches_sent(run.console, 10);  // two measurement frames per stereo pair at least

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Boots Debian's kernel under qemu (microvm machine) with the host's root shared read-only and runs
-# JOB (a /bin/sh script on the host file system: absolute path, not under /tmp or /run, which are fresh
+# JOB (a /bin/sh script on the host file system: absolute path, not under /mnt or /run, which are fresh
 # tmpfs in the guest) inside the guest as root, chrooted into the host root, with vcan0 up (see the
 # guest's init). The guest's serial console is copied to stdout; it starts the job's part with
 # RUTD-GUEST-START uptime_s=<guest seconds since boot> and ends with RUTD-GUEST-EXIT=<job status>.
@@ -25,7 +25,7 @@ qemu=$(command -v qemu-system-x86_64 || true)
 [ -n "$qemu" ] || { echo "run-guest: no qemu-system-x86_64 (Debian package qemu-system-x86)" >&2; exit 77; }
 [ "$(uname -m)" = x86_64 ] || { echo "run-guest: the guest kernel is amd64; host is $(uname -m)" >&2; exit 77; }
 case $job in
-  /tmp/* | /run/*) echo "run-guest: JOB must not be under /tmp or /run (fresh tmpfs in the guest)" >&2; exit 1 ;;
+  /mnt/* | /run/*) echo "run-guest: JOB must not be under /mnt or /run (fresh tmpfs in the guest)" >&2; exit 1 ;;
   /*) ;;
   *) echo "run-guest: JOB must be an absolute path" >&2; exit 1 ;;
 esac
