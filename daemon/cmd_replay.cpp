@@ -1,6 +1,7 @@
 // rutd replay DIR: measures every pair of a recording, as fast as it can, and writes one CSV line per
 // pair (and the CAN frames that would have been sent, in candump format). Output is flushed per line so
-// a failure part-way keeps everything measured before it.
+// a failure part-way keeps everything measured before it; a pair that cannot be read is reported and
+// skipped, and the command then exits 1.
 #include <spdlog/spdlog.h>
 
 #include <chrono>
@@ -51,14 +52,16 @@ int run_replay(const ReplayOptions& o) {
   RunSummary summary;
   StereoFrame frame;
   std::array<CanFrame, 2> frames{};
-  int exit_code = 0;
+  std::uint64_t unreadable = 0;
   for (;;) {
     const SourceStatus status = reader.next(frame);
     if (status == SourceStatus::EndOfStream) break;
     if (status != SourceStatus::Ok) {
+      // One bad pair (a corrupt image, a malformed line) must not cost the rest of a long recording:
+      // report it, go on with the next line, and fail the command at the end.
       spdlog::error("{}", reader.error_message());
-      exit_code = 1;  // what was measured so far is already written
-      break;
+      ++unreadable;
+      continue;
     }
     const RutMeasurement m = measurer.measure(frame.left, frame.right);
     summary.add(m, measurer.diagnostics());
@@ -71,7 +74,11 @@ int run_replay(const ReplayOptions& o) {
   if (reader.truncated_tail())
     spdlog::warn("{}: the last line of frames.csv was cut off; replayed up to the last complete pair", o.dir);
   summary.log();
-  return exit_code;
+  if (unreadable > 0) {
+    spdlog::error("{}: {} pairs could not be read (see above); the other pairs were measured", o.dir, unreadable);
+    return 1;
+  }
+  return 0;
 }
 
 }  // namespace

@@ -1,0 +1,73 @@
+// Bad input through the rutd program, as a user meets it: one clear error naming the file and the
+// field or line, and nothing already measured lost.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+#include "drivers/measurement_csv.hpp"
+#include "test_support.hpp"
+
+namespace rutd {
+namespace {
+
+namespace fs = std::filesystem;
+
+class ReplayErrors : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    rec_ = (tmp_.path() / "rec").string();
+    ASSERT_EQ(test::run_rutd("synth " + rec_ + " --frames 4 --seed 3"), 0);
+  }
+  int replay(std::string& stderr_text) {
+    const std::string err = (tmp_.path() / "err.txt").string();
+    const int status = test::run_rutd("replay " + rec_ + " --out " + csv(), err);
+    stderr_text = test::read_text(err);
+    return status;
+  }
+  std::string csv() const { return (tmp_.path() / "m.csv").string(); }
+
+  test::TempDir tmp_;
+  std::string rec_;
+};
+
+TEST_F(ReplayErrors, MissingImageIsNamedAndTheOtherPairsAreMeasured) {
+  fs::remove(fs::path(rec_) / "right" / "00000002.png");
+  std::string err;
+  EXPECT_EQ(replay(err), 1);
+  EXPECT_NE(err.find("frames.csv: line 4"), std::string::npos) << err;
+  EXPECT_NE(err.find("00000002.png"), std::string::npos) << err;
+  const auto rows = read_measurement_csv(csv()).rows;
+  ASSERT_EQ(rows.size(), 3u);
+  EXPECT_EQ(rows[0].seq, 0u);
+  EXPECT_EQ(rows[1].seq, 1u);
+  EXPECT_EQ(rows[2].seq, 3u);
+}
+
+TEST_F(ReplayErrors, BadCalibrationKeyIsNamed) {
+  const fs::path cal = fs::path(rec_) / "calibration.yaml";
+  std::string text = test::read_text(cal);
+  const auto at = text.find("M2:");
+  ASSERT_NE(at, std::string::npos);
+  text.replace(at, 3, "MX:");
+  std::ofstream(cal) << text;
+  std::string err;
+  EXPECT_EQ(replay(err), 2);
+  EXPECT_NE(err.find("calibration.yaml"), std::string::npos) << err;
+  EXPECT_NE(err.find("M2"), std::string::npos) << err;
+}
+
+TEST_F(ReplayErrors, CutOffLastLineReplaysUpToTheLastCompletePair) {
+  const fs::path frames = fs::path(rec_) / "frames.csv";
+  std::string text = test::read_text(frames);
+  text.resize(text.size() - 12);  // a power cut in the middle of the last line
+  std::ofstream(frames, std::ios::trunc) << text;
+  std::string err;
+  EXPECT_EQ(replay(err), 0) << err;
+  EXPECT_NE(err.find("cut off"), std::string::npos) << err;
+  EXPECT_EQ(read_measurement_csv(csv()).rows.size(), 3u);
+}
+
+}  // namespace
+}  // namespace rutd
