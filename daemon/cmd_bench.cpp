@@ -14,6 +14,7 @@
 
 #include "daemon/commands.hpp"
 #include "daemon/dimensions.hpp"
+#include "drivers/cycling_source.hpp"
 #include "drivers/synthetic_renderer.hpp"
 #include "pipeline/realtime_pipeline.hpp"
 
@@ -28,38 +29,6 @@ struct Options {
   std::string engine = "sgbm3way";
   std::string size = "640x480";
 };
-class CyclingSource final : public FrameSource {
- public:
-  CyclingSource(const StereoCalibration& calibration, const std::vector<StereoFrame>& frames, double fps)
-      : calibration_(calibration), frames_(frames), period_(fps > 0 ? std::chrono::nanoseconds(
-                                                                          static_cast<long long>(1e9 / fps))
-                                                                    : std::chrono::nanoseconds(0)) {}
-  SourceStatus next(StereoFrame& f) override {
-    if (period_.count() > 0) {
-      if (due_ == std::chrono::steady_clock::time_point{}) due_ = std::chrono::steady_clock::now();
-      due_ += period_;
-      std::this_thread::sleep_until(due_);
-    }
-    const StereoFrame& src = frames_[seq_ % frames_.size()];
-    src.left.copyTo(f.left);
-    src.right.copyTo(f.right);
-    f.seq = seq_++;
-    f.t_ns = monotonic_now_ns();
-    f.clock = ClockKind::Monotonic;
-    return SourceStatus::Ok;
-  }
-  const StereoCalibration& calibration() const override { return calibration_; }
-  const std::string& error_message() const override { return error_; }
-
- private:
-  StereoCalibration calibration_;
-  const std::vector<StereoFrame>& frames_;
-  std::chrono::nanoseconds period_;
-  std::chrono::steady_clock::time_point due_{};
-  std::string error_;
-  std::uint64_t seq_ = 0;
-};
-
 class CountingSink final : public MeasurementSink {
  public:
   void publish(const FrameWork& w, const SensorHealth&) override {
@@ -81,7 +50,8 @@ void run(const char* mode, const char* regime, const SyntheticRenderer& renderer
          const Options& o) {
   const StereoMeasurer measurer(renderer.calibration(), mc);
   MeasurerStages stages(measurer);
-  CyclingSource source(renderer.calibration(), frames, fps);
+  const auto period = fps > 0 ? std::chrono::nanoseconds(static_cast<std::int64_t>(1e9 / fps)) : std::chrono::nanoseconds(0);
+  CyclingSource source(renderer.calibration(), frames, period);
   CountingSink sink;
   PipelineConfig config;
   config.lossless = lossless;

@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "drivers/synthetic_renderer.hpp"
+#include "drivers/cycling_source.hpp"
 #include "pipeline/realtime_pipeline.hpp"
 
 // ---- Allocation counter -------------------------------------------------------------------------
@@ -546,32 +547,6 @@ TEST(RealtimePipeline, FakeStagesAllocateNothingPerFrameWhenLossless) {
 
 // ---- The real measurer's stages -----------------------------------------------------------------
 
-// Synthetic pairs rendered once; the source copies them into the slot's buffers (as a camera driver
-// fills its buffers) and stamps them now.
-class CyclingSource final : public FrameSource {
- public:
-  CyclingSource(const StereoCalibration& calibration, std::vector<StereoFrame> frames)
-      : calibration_(calibration), frames_(std::move(frames)) {}
-  SourceStatus next(StereoFrame& f) override {
-    const StereoFrame& src = frames_[seq_ % frames_.size()];
-    src.left.copyTo(f.left);
-    src.right.copyTo(f.right);
-    f.seq = seq_++;
-    f.t_ns = monotonic_now_ns();
-    f.clock = ClockKind::Monotonic;
-    std::this_thread::sleep_for(1ms);
-    return SourceStatus::Ok;
-  }
-  const StereoCalibration& calibration() const override { return calibration_; }
-  const std::string& error_message() const override { return error_; }
-
- private:
-  StereoCalibration calibration_;
-  std::vector<StereoFrame> frames_;
-  std::string error_;
-  std::uint64_t seq_ = 0;
-};
-
 struct RealRig {
   RealRig() : renderer((sequential_opencv_under_tsan(), params())) {
     for (std::uint64_t i = 0; i < 3; ++i) {
@@ -675,7 +650,7 @@ TEST(RealtimePipeline, RealRectifyAndExtractAllocateNothingPerFrameInThePipeline
     }
     EXPECT_EQ(single.measure(rig.frames[0].left, rig.frames[0].right).status, RutStatus::Ok);
   }
-  CyclingSource source(rig.renderer.calibration(), rig.frames);
+  CyclingSource source(rig.renderer.calibration(), rig.frames, 1ms);
   ReplayedMatchStages stages(measurer, disparities);
   FakeSink sink;
   PipelineConfig config = test_config();

@@ -15,6 +15,7 @@
 #include "daemon/service_notifier.hpp"
 #include "daemon/sinks.hpp"
 #include "daemon/supervisor.hpp"
+#include "drivers/cycling_source.hpp"
 #include "pipeline/realtime_pipeline.hpp"
 #include "test_support.hpp"
 
@@ -54,28 +55,6 @@ TEST(LivenessMonitor, SilentPublisherIsAStall) {
   EXPECT_TRUE(m.update(0, 0, 7, 150 * kMs));
   EXPECT_FALSE(m.update(0, 0, 7, 250 * kMs));
 }
-
-// A source of small black pairs every 5 ms, stamped with CLOCK_MONOTONIC.
-class TickSource final : public FrameSource {
- public:
-  TickSource() { calibration_.image_size = {64, 48}; }
-  SourceStatus next(StereoFrame& f) override {
-    std::this_thread::sleep_for(5ms);
-    f.left.create(48, 64, CV_8UC1);
-    f.right.create(48, 64, CV_8UC1);
-    f.seq = seq_++;
-    f.t_ns = monotonic_now_ns();
-    f.clock = ClockKind::Monotonic;
-    return SourceStatus::Ok;
-  }
-  const StereoCalibration& calibration() const override { return calibration_; }
-  const std::string& error_message() const override { return error_; }
-
- private:
-  StereoCalibration calibration_;
-  std::string error_;
-  std::uint64_t seq_ = 0;
-};
 
 // Stages whose match blocks while `hang` is set, as a stage stuck in a driver call would.
 class HangableStages final : public PipelineStages {
@@ -131,7 +110,13 @@ TEST(Watchdog, HungStageStopsThePingsAndRecoveryResumesThem) {
   ServiceNotifier notifier;
   ASSERT_EQ(notifier.watchdog_interval(), 200ms);
 
-  TickSource source;
+  // Small black pairs every 5 ms.
+  StereoCalibration calibration;
+  calibration.image_size = {64, 48};
+  StereoFrame black;
+  black.left = cv::Mat::zeros(48, 64, CV_8UC1);
+  black.right = black.left.clone();
+  CyclingSource source(calibration, {black}, 5ms);
   HangableStages stages;
   LatestMeasurement latest;
   PipelineConfig config;
