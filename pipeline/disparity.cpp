@@ -66,8 +66,8 @@ DisparityBand band_for_range(const StereoGeometry& g, WorkingRange range) {
   return band_between(lo, hi);
 }
 
-DisparityBand estimate_band(const cv::Mat& left_strip, const cv::Mat& right_strip, const StereoGeometry& g,
-                            WorkingRange range) {
+DisparityBand BandEstimator::estimate(const cv::Mat& left_strip, const cv::Mat& right_strip, const StereoGeometry& g,
+                                      WorkingRange range) {
   const DisparityBand full = band_for_range(g, range);
   const int full_hi = full.min_disparity + full.num_disparities - 1;
   int scale = 1;  // horizontal downsampling: rows are few already, disparity only lives along x
@@ -78,34 +78,43 @@ DisparityBand estimate_band(const cv::Mat& left_strip, const cv::Mat& right_stri
   const int coarse_hi = std::min((full_hi + scale - 1) / scale, coarse_width - coarse_width / 4);
   if (coarse_hi - coarse_lo < 1 || left_strip.rows < 3) return full;
 
-  cv::Mat left, right, coarse;
   const cv::Size coarse_size(coarse_width, left_strip.rows);
-  cv::resize(left_strip, left, coarse_size, 0, 0, cv::INTER_AREA);
-  cv::resize(right_strip, right, coarse_size, 0, 0, cv::INTER_AREA);
-  EngineParams params;
-  params.block_size = left_strip.rows >= 5 ? 5 : 3;
-  make_cpu_engine(EngineKind::Sgbm, params)->compute(left, right, band_between(coarse_lo, coarse_hi), coarse);
+  cv::resize(left_strip, left_, coarse_size, 0, 0, cv::INTER_AREA);
+  cv::resize(right_strip, right_, coarse_size, 0, 0, cv::INTER_AREA);
+  const int block = left_strip.rows >= 5 ? 5 : 3;
+  if (!engine_ || engine_block_ != block) {
+    EngineParams params;
+    params.block_size = block;
+    engine_ = make_cpu_engine(EngineKind::Sgbm, params);
+    engine_block_ = block;
+  }
+  engine_->compute(left_, right_, band_between(coarse_lo, coarse_hi), coarse_);
 
-  cv::Mat texture;
-  cv::Sobel(left, texture, CV_32F, 1, 0, 3);
-  texture = cv::abs(texture);
-  cv::blur(texture, texture, cv::Size(5, 5));
-  std::vector<float> found;
-  found.reserve(coarse.total());
-  for (int r = 0; r < coarse.rows; ++r) {
-    const float* row = coarse.ptr<float>(r);
-    const float* tex = texture.ptr<float>(r);
-    for (int x = 0; x < coarse.cols; ++x) {
-      if (std::isfinite(row[x]) && tex[x] >= kMinTexture) found.push_back(row[x] * static_cast<float>(scale));
+  cv::Sobel(left_, texture_, CV_32F, 1, 0, 3);
+  texture_ = cv::abs(texture_);
+  cv::blur(texture_, texture_, cv::Size(5, 5));
+  found_.clear();
+  found_.reserve(coarse_.total());
+  for (int r = 0; r < coarse_.rows; ++r) {
+    const float* row = coarse_.ptr<float>(r);
+    const float* tex = texture_.ptr<float>(r);
+    for (int x = 0; x < coarse_.cols; ++x) {
+      if (std::isfinite(row[x]) && tex[x] >= kMinTexture) found_.push_back(row[x] * static_cast<float>(scale));
     }
   }
-  if (static_cast<double>(found.size()) < kMinCoarseValid * static_cast<double>(coarse.total())) return full;
-  const double lo = percentile(found, kLowPercentile);
-  const double hi = percentile(found, kHighPercentile);
+  if (static_cast<double>(found_.size()) < kMinCoarseValid * static_cast<double>(coarse_.total())) return full;
+  const double lo = percentile(found_, kLowPercentile);
+  const double hi = percentile(found_, kHighPercentile);
   const double margin = std::max({kMinMarginPx, 2.0 * scale, kSpreadMargin * (hi - lo)});
   const int band_lo = std::clamp(static_cast<int>(std::floor(lo - margin)), full.min_disparity, full_hi);
   const int band_hi = std::clamp(static_cast<int>(std::ceil(hi + margin)), band_lo, full_hi);
   return band_between(band_lo, band_hi);
+}
+
+DisparityBand estimate_band(const cv::Mat& left_strip, const cv::Mat& right_strip, const StereoGeometry& g,
+                            WorkingRange range) {
+  BandEstimator estimator;
+  return estimator.estimate(left_strip, right_strip, g, range);
 }
 
 }  // namespace rutd

@@ -2,6 +2,7 @@
 // Disparity engines (DESIGN.md §3): the interface every engine (CPU here, CUDA elsewhere) implements,
 // the CPU factory, and the choice of the search band from the working range of distances.
 #include <memory>
+#include <vector>
 #include <optional>
 #include <string_view>
 
@@ -68,8 +69,21 @@ DisparityBand band_for_range(const StereoGeometry& g, WorkingRange range);
 // horizontally by a power of two so the band of `range` fits in at most 128 coarse px, StereoSGBM)
 // finds the disparities present at textured pixels; returns a narrow band around them (2nd..98th percentile plus a margin
 // of max(4 px, 2 coarse px, 25% of the spread)), clamped to band_for_range(range). Returns
-// band_for_range(range) when fewer than 5% of the coarse pixels get a disparity. Start-up / occasional
-// use: allocates.
+// band_for_range(range) when fewer than 5% of the coarse pixels get a disparity.
+// BandEstimator keeps the coarse matcher and its buffers between calls, for the per-frame path (one per
+// thread); estimate_band is the one-off form and builds them each call.
+class BandEstimator {
+ public:
+  DisparityBand estimate(const cv::Mat& left_strip, const cv::Mat& right_strip, const StereoGeometry& g,
+                         WorkingRange range);
+
+ private:
+  std::unique_ptr<DisparityEngine> engine_;
+  int engine_block_ = 0;  // block size engine_ was made with
+  cv::Mat left_, right_, coarse_, texture_;
+  std::vector<float> found_;
+};
+
 DisparityBand estimate_band(const cv::Mat& left_strip, const cv::Mat& right_strip, const StereoGeometry& g,
                             WorkingRange range);
 

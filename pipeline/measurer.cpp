@@ -77,7 +77,7 @@ bool StereoMeasurer::rectify(FrameWork& w) const {
 void StereoMeasurer::match(FrameWork& w, MatchContext& context) const {
   auto t0 = Clock::now();
   w.diag.band = config_.fixed_band ? *config_.fixed_band
-                                   : estimate_band(w.left_strip, w.right_strip, geometry_, config_.range);
+                                   : context.band.estimate(w.left_strip, w.right_strip, geometry_, config_.range);
   w.diag.band_ms = ms_since(t0);
 
   t0 = Clock::now();

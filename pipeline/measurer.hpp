@@ -63,6 +63,7 @@ struct FrameWork {
 // What the match stage needs of its own: one per thread that runs match().
 struct MatchContext {
   std::unique_ptr<DisparityEngine> engine;
+  BandEstimator band;
   DicWorkspace dic;
 };
 
