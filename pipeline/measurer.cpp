@@ -19,7 +19,7 @@ double ms_since(Clock::time_point t0) {
 // real image rows rather than a replicated border.
 int margin_for(const MeasurerConfig& config) {
   const int block = config.engine_params.block_size > 0 ? config.engine_params.block_size : 11;
-  return std::max(block / 2, config.dic_params.half_window) + 2;
+  return std::max({block / 2, config.dic_params.half_window, config.dic_params.half_height}) + 2;
 }
 
 StripRoi measured_strip(const StereoCalibration& calibration, const MeasurerConfig& config) {
