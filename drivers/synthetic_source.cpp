@@ -27,7 +27,7 @@ void sleep_until_ns(std::int64_t deadline_ns) {
 SyntheticSource::SyntheticSource(const SynthParams& params, SyntheticSourceOptions options)
     : renderer_(params), options_(options) {}
 
-std::int64_t SyntheticSource::wait_for_slot() {
+void SyntheticSource::wait_for_slot() {
   const double period_ns = 1e9 / renderer_.params().fps;
   const std::int64_t now = monotonic_ns();
   const auto due = [&] {
@@ -41,7 +41,6 @@ std::int64_t SyntheticSource::wait_for_slot() {
   }
   const std::int64_t slot = due();
   if (slot > now) sleep_until_ns(slot);
-  return slot;
 }
 
 SourceStatus SyntheticSource::next(StereoFrame& frame) {

@@ -32,7 +32,7 @@ class SyntheticSource : public FrameSource {
   const SyntheticRenderer& renderer() const noexcept { return renderer_; }
 
  private:
-  std::int64_t wait_for_slot();  // sleeps until the next pair is due; returns when it was due (CLOCK_MONOTONIC)
+  void wait_for_slot();  // sleeps until the next pair is due on the schedule
 
   SyntheticRenderer renderer_;
   SyntheticSourceOptions options_;
