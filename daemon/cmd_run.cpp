@@ -2,7 +2,10 @@
 // pipeline (acquire -> rectify -> match -> extract -> publish), publishes every measurement as CAN
 // frames plus a periodic status frame, and talks to systemd (READY, STATUS, WATCHDOG). With no options it
 // runs on any machine: synthetic cameras at their real frame rate, CAN frames on stdout (candump -L
-// format), logs on stderr. SIGINT/SIGTERM: stop, drain, exit 0 within a second.
+// format), logs on stderr. SIGINT/SIGTERM: stop, drain, exit 0 within a second. With sinks.record (or
+// --record DIR) the raw pairs are also recorded (drivers/frame_recorder.hpp); a recording that fails
+// (disk full, file too large) stops with one error and raises RecordingError in the status frames
+// while measuring goes on.
 #include <spdlog/spdlog.h>
 
 #include <atomic>
@@ -14,36 +17,25 @@
 #include <thread>
 
 #include "daemon/commands.hpp"
+#include "daemon/stop_signal.hpp"
 #include "daemon/config.hpp"
 #include "daemon/dimensions.hpp"
 #include "daemon/run_sources.hpp"
 #include "daemon/service_notifier.hpp"
 #include "daemon/supervisor.hpp"
 #include "daemon/sinks.hpp"
+#include "drivers/frame_recorder.hpp"
 #include "drivers/input_error.hpp"
 #include "pipeline/realtime_pipeline.hpp"
 
 namespace rutd {
 namespace {
 
-// Set from the signal handler; a lock-free atomic is async-signal-safe.
-std::atomic<bool> g_stop_requested{false};
-static_assert(std::atomic<bool>::is_always_lock_free);
-extern "C" void on_stop_signal(int) { g_stop_requested.store(true, std::memory_order_relaxed); }
-
-void install_stop_handlers() {
-  struct sigaction action {};
-  action.sa_handler = on_stop_signal;
-  sigemptyset(&action.sa_mask);
-  sigaction(SIGINT, &action, nullptr);
-  sigaction(SIGTERM, &action, nullptr);
-}
-
 // Command-line overrides of the configuration, for quick runs and tests.
 struct RunOptions {
   std::string config;
   std::uint64_t frames = 0;  // stop after this many published measurements; 0: until a signal
-  std::optional<std::string> socketcan, candump, csv, size, engine, replay_dir;
+  std::optional<std::string> socketcan, candump, csv, record, size, engine, replay_dir;
   bool no_dic = false;
 };
 
@@ -52,6 +44,7 @@ RutdConfig effective_config(const RunOptions& o) {
   if (o.socketcan) c.sinks.socketcan = *o.socketcan;
   if (o.candump) c.sinks.candump = *o.candump;
   if (o.csv) c.sinks.csv = *o.csv;
+  if (o.record) c.sinks.record = *o.record;
   if (o.no_dic) c.measurement.dic = false;
   if (o.engine) c.measurement.engine = *parse_engine(*o.engine);  // checked by IsMember
   if (o.replay_dir) {
@@ -89,6 +82,9 @@ PipelineConfig pipeline_config(const RutdConfig& c) {
 }
 
 int run_daemon(const RunOptions& o) {
+  // First, before any file is written: an exceeded file-size limit (RLIMIT_FSIZE) must fail the write
+  // with EFBIG, which the recorder reports, instead of killing the daemon.
+  std::signal(SIGXFSZ, SIG_IGN);
   const RutdConfig c = effective_config(o);
   spdlog::set_level(spdlog::level::from_str(c.logging.level));
   std::unique_ptr<FrameSource> source = make_source(c);  // throws InputError for a bad recording/calibration
@@ -100,9 +96,16 @@ int run_daemon(const RunOptions& o) {
   std::ostream* csv_stream = open_stream(c.sinks.csv, csv_file, "sinks.csv");
   std::unique_ptr<SocketCanSink> bus;
   if (!c.sinks.socketcan.empty()) bus = std::make_unique<SocketCanSink>(c.sinks.socketcan);  // throws, naming it
+  // Created after every other start-up check, so a start that fails leaves no empty recording behind
+  // (which would block the next start: an existing recording is refused, InputError, never overwritten).
+  std::unique_ptr<FrameRecorder> recorder;
+  if (!c.sinks.record.empty()) {
+    recorder = std::make_unique<FrameRecorder>(c.sinks.record, source->calibration());
+    source = std::make_unique<RecordingSource>(std::move(source), *recorder);
+  }
   std::unique_ptr<CandumpLogWriter> log;
   if (candump_stream != nullptr) log = std::make_unique<CandumpLogWriter>(*candump_stream, c.sinks.can_interface_name);
-  CanPublisher can(c.can, bus.get(), log.get(), candump_stream);
+  CanPublisher can(c.can, bus.get(), log.get(), candump_stream, recorder.get());
   std::unique_ptr<CsvSink> csv;
   if (csv_stream != nullptr) csv = std::make_unique<CsvSink>(*csv_stream);
   LatestMeasurement latest;
@@ -113,9 +116,10 @@ int run_daemon(const RunOptions& o) {
   install_stop_handlers();
   ServiceNotifier systemd;
   RealtimePipeline pipeline(*source, stages, fanout, pipeline_config(c));
-  spdlog::info("rutd {}: source {}, engine {}{}, CAN to {}{}", c.file, describe_source(c), to_string(c.measurement.engine),
+  spdlog::info("rutd {}: source {}, engine {}{}, CAN to {}{}{}", c.file, describe_source(c), to_string(c.measurement.engine),
                c.measurement.dic ? " + DIC" : "", bus ? c.sinks.socketcan : std::string("no bus"),
-               log ? (", candump log to " + (c.sinks.candump == "-" ? std::string("stdout") : c.sinks.candump)) : "");
+               log ? (", candump log to " + (c.sinks.candump == "-" ? std::string("stdout") : c.sinks.candump)) : "",
+               recorder ? ", recording to " + recorder->directory() : "");
   pipeline.start();
   for (const auto& w : pipeline.placement_warnings()) spdlog::warn("thread placement: {}", w);
 
@@ -125,7 +129,7 @@ int run_daemon(const RunOptions& o) {
   const auto tick = watchdog.count() > 0 ? std::min(watchdog / 4, milliseconds(100)) : milliseconds(100);
   Supervisor supervisor(systemd, watchdog.count() > 0 ? watchdog : milliseconds(5000), seconds(30));
   int exit_code = 0;
-  while (!g_stop_requested.load(std::memory_order_relaxed)) {
+  while (!stop_requested()) {
     std::this_thread::sleep_for(tick);
     const PipelineStats s = pipeline.stats();
     supervisor.tick(s, latest, monotonic_now_ns());
@@ -135,6 +139,13 @@ int run_daemon(const RunOptions& o) {
   pipeline.stop();
   const PipelineStats s = pipeline.stats();
   spdlog::info("stopped: {}", describe(s));
+  if (recorder) {
+    recorder->close();  // writes what is still queued
+    const FrameRecorderStats r = recorder->stats();
+    // The failure itself was logged once, when it happened.
+    spdlog::info("recording {}: {} pairs written, {} dropped (writer behind){}", recorder->directory(), r.written,
+                 r.dropped, r.failed ? fmt::format(", stopped by an error, {} pairs not recorded", r.discarded) : "");
+  }
   if (bus) {
     const SocketCanStats& b = bus->stats();
     spdlog::info("CAN {}: {} frames sent, {} dropped (queue full), {} write errors, {} bus-off events", c.sinks.socketcan,
@@ -154,6 +165,7 @@ void add_run_command(CLI::App& app, int& exit_code) {
   cmd->add_option("--socketcan", o->socketcan, "Send on this CAN interface (overrides sinks.socketcan)");
   cmd->add_option("--candump", o->candump, "candump -L log of the frames sent, '-' for stdout, '' for none (sinks.candump)");
   cmd->add_option("--csv", o->csv, "Measurement CSV file (sinks.csv)");
+  cmd->add_option("--record", o->record, "Also record the raw pairs into this new folder (sinks.record)");
   cmd->add_option("--replay", o->replay_dir, "Measure a recording folder at its own pace instead of the configured source");
   cmd->add_option("--size", o->size, "Synthetic camera image size WIDTHxHEIGHT (source.synthetic.size)");
   cmd->add_option("--engine", o->engine, "Disparity engine (measurement.engine)")

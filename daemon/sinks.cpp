@@ -14,8 +14,9 @@ std::int64_t wall_clock_ns() {
 
 }  // namespace
 
-CanPublisher::CanPublisher(const CanIdConfig& ids, SocketCanSink* bus, CandumpLogWriter* log, std::ostream* log_stream)
-    : encoder_(ids), bus_(bus), log_(log), log_stream_(log_stream) {}
+CanPublisher::CanPublisher(const CanIdConfig& ids, SocketCanSink* bus, CandumpLogWriter* log, std::ostream* log_stream,
+                           const FrameRecorder* recorder)
+    : encoder_(ids), bus_(bus), log_(log), log_stream_(log_stream), recorder_(recorder) {}
 
 void CanPublisher::emit(const CanFrame& frame) {
   if (bus_ != nullptr && !bus_->send(frame)) return;
@@ -37,6 +38,8 @@ void CanPublisher::publish_status(const SensorHealth& health, std::int64_t) {
     h.can_tx_drops = bus_->stats().dropped != dropped_at_last_status_;
     dropped_at_last_status_ = bus_->stats().dropped;
   }
+  // Stays raised once the recording failed: the recorder does not resume by itself.
+  if (recorder_ != nullptr && recorder_->failed()) h.recording_error = true;
   emit(encoder_.encode_status(h));
   if (log_stream_ != nullptr) log_stream_->flush();
 }

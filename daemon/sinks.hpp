@@ -8,6 +8,7 @@
 
 #include "drivers/can_encoder.hpp"
 #include "drivers/candump_log.hpp"
+#include "drivers/frame_recorder.hpp"
 #include "drivers/measurement_csv.hpp"
 #include "drivers/socketcan_sink.hpp"
 #include "pipeline/measurement_sink.hpp"
@@ -16,12 +17,15 @@ namespace rutd {
 
 // CAN: every measurement and status is encoded once; each frame goes to the bus (when configured) and
 // to the candump log (when configured), so the log is exactly what the bus got. With a bus, frames the
-// kernel refused (full queue) are counted, reported in the status message and not logged.
+// kernel refused (full queue) are counted, reported in the status message and not logged. With a
+// recorder, every status frame after the recording failed carries RecordingError = 1.
 class CanPublisher final : public MeasurementSink {
  public:
-  // bus and log may be null (not configured); both are not owned. log_stream is flushed per call so a
-  // reader of a pipe sees frames as they are sent.
-  CanPublisher(const CanIdConfig& ids, SocketCanSink* bus, CandumpLogWriter* log, std::ostream* log_stream);
+  // bus, log and recorder may be null (not configured); none is owned, all must outlive the publisher.
+  // log_stream is flushed per call so a reader of a pipe sees frames as they are sent. recorder is only
+  // asked failed(), which is thread-safe.
+  CanPublisher(const CanIdConfig& ids, SocketCanSink* bus, CandumpLogWriter* log, std::ostream* log_stream,
+               const FrameRecorder* recorder = nullptr);
   void publish(const FrameWork& work, const SensorHealth& health) override;
   void publish_status(const SensorHealth& health, std::int64_t t_ns) override;
 
@@ -32,6 +36,7 @@ class CanPublisher final : public MeasurementSink {
   SocketCanSink* bus_;
   CandumpLogWriter* log_;
   std::ostream* log_stream_;
+  const FrameRecorder* recorder_;
   std::array<CanFrame, 2> frames_{};
   std::uint64_t dropped_at_last_status_ = 0;
 };
