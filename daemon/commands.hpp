@@ -10,5 +10,7 @@ void add_synth_command(CLI::App& app, int& exit_code);   // render a synthetic r
 void add_replay_command(CLI::App& app, int& exit_code);  // measure a recording
 void add_calibrate_command(CLI::App& app, int& exit_code);  // chessboard pairs to a calibration file
 void add_bench_command(CLI::App& app, int& exit_code);      // pipeline rate and latency figures
+void add_record_command(CLI::App& app, int& exit_code);     // record the configured source, no measuring
+void add_cameras_command(CLI::App& app, int& exit_code);    // list cameras and their features
 
 }  // namespace rutd

@@ -233,6 +233,67 @@ void read_can(Section s, CanIdConfig& c) {
   s.finish();
 }
 
+// A sensor rectangle written [x, y, width, height]; [0, 0, 0, 0] is the whole sensor.
+void read_region(Section& s, const char* key, SensorRegion& r) {
+  std::vector<int> v{r.x, r.y, r.width, r.height};
+  s.get_int_list(key, v);
+  if (v.size() != 4) s.fail(key, "expected [x, y, width, height]");
+  if (v[0] < 0 || v[1] < 0 || v[2] < 0 || v[3] < 0 || v[0] > 65535 || v[1] > 65535 || v[2] > 65535 || v[3] > 65535)
+    s.fail(key, "values must be 0..65535");
+  if ((v[2] == 0) != (v[3] == 0)) s.fail(key, "width and height are both 0 (whole sensor) or both set");
+  r = SensorRegion{v[0], v[1], v[2], v[3]};
+}
+
+void read_aravis(Section s, AravisSourceConfig& a) {
+  s.get<std::string>("left", a.left)
+      .get<std::string>("right", a.right)
+      .parse("pixel_format",
+             [&](const std::string& t) {
+               if (t == "mono8") a.pixel_format = CameraPixelFormat::Mono8;
+               else if (t == "mono16") a.pixel_format = CameraPixelFormat::Mono16;
+               else if (t == "bayer") a.pixel_format = CameraPixelFormat::Bayer8;
+               else return "expected mono8, mono16 or bayer, got '" + t + "'";
+               return std::string();
+             })
+      .get<int>("binning", a.binning, in_range(1, 8))
+      .get<double>("fps", a.fps, in_range(0.1, 1000.0))
+      .parse("sync",
+             [&](const std::string& t) {
+               if (t == "free_run") a.sync = CameraSync::FreeRun;
+               else if (t == "software_trigger") a.sync = CameraSync::SoftwareTrigger;
+               else if (t == "hardware_trigger") a.sync = CameraSync::HardwareTrigger;
+               else return "expected free_run, software_trigger or hardware_trigger, got '" + t + "'";
+               return std::string();
+             })
+      .get<std::string>("trigger_line", a.trigger_line)
+      .get<bool>("exposure_auto", a.exposure_auto)
+      .get<double>("exposure_us", a.exposure_us, in_range(1.0, 1e7))
+      .get<double>("exposure_min_us", a.exposure_min_us, in_range(1.0, 1e7))
+      .get<double>("exposure_max_us", a.exposure_max_us, in_range(1.0, 1e7))
+      .get<bool>("gain_auto", a.gain_auto)
+      .get<double>("gain_db", a.gain_db, in_range(0.0, 48.0))
+      .get<double>("gain_max_db", a.gain_max_db, in_range(0.0, 48.0))
+      .get<double>("pairing_window_ms", a.pairing_window_ms, in_range(0.001, 500.0))
+      .get<double>("stall_timeout_ms", a.stall_timeout_ms, in_range(0.0, 60000.0))
+      .get<double>("reconnect_min_ms", a.reconnect_min_ms, in_range(10.0, 60000.0))
+      .get<double>("reconnect_max_ms", a.reconnect_max_ms, in_range(10.0, 600000.0))
+      .get<int>("buffers", a.buffers, in_range(2, 64))
+      .get<int>("packet_size", a.packet_size, in_range(0, 16384))
+      .get<int>("packet_delay_ns", a.packet_delay_ns, in_range(0, 100000000))
+      .get<int>("socket_buffer_bytes", a.socket_buffer_bytes, in_range(0, 1 << 30))
+      .get<bool>("packet_resend", a.packet_resend);
+  read_region(s, "roi", a.roi);
+  read_region(s, "metering_region", a.metering_region);
+  if (a.exposure_min_us > a.exposure_max_us) s.fail("exposure_min_us", "must not be above exposure_max_us");
+  if (a.reconnect_min_ms > a.reconnect_max_ms) s.fail("reconnect_min_ms", "must not be above reconnect_max_ms");
+  if (a.pairing_window_ms * 2 >= 1000.0 / a.fps)
+    s.fail("pairing_window_ms", "must be below half the frame period (1000 / fps / 2 ms), so a frame has one partner");
+  if (a.stall_timeout_ms > 0 && a.stall_timeout_ms < 1000.0 / a.fps)
+    s.fail("stall_timeout_ms", "must be at least one frame period (1000 / fps ms), or 0 for no stall detection");
+  if (a.packet_size != 0 && a.packet_size < 576) s.fail("packet_size", "0 (negotiate) or at least 576 bytes");
+  s.finish();
+}
+
 }  // namespace
 
 RutdConfig parse_config(const std::string& yaml_text, const std::string& file) {
@@ -259,10 +320,17 @@ RutdConfig parse_config(const std::string& yaml_text, const std::string& file) {
   replay.get<std::string>("dir", c.replay.dir).get<bool>("paced", c.replay.paced).get<bool>("loop", c.replay.loop);
   replay.finish();
   if (c.source == SourceKind::Replay && c.replay.dir.empty()) replay.fail("dir", "the replay source needs a recording folder");
+  read_aravis(source.child("aravis"), c.aravis);
   source.finish();
 
   top.get<std::string>("calibration", c.calibration);
   if (c.source == SourceKind::Aravis && c.calibration.empty()) top.fail("calibration", "cameras need a calibration file");
+  if (c.source == SourceKind::Aravis) {
+    Section aravis = source.child("aravis");
+    if (c.aravis.left.empty()) aravis.fail("left", "the aravis source needs the left camera (id, serial or address)");
+    if (c.aravis.right.empty()) aravis.fail("right", "the aravis source needs the right camera (id, serial or address)");
+    if (c.aravis.left == c.aravis.right) aravis.fail("right", "the same camera as left");
+  }
   read_measurement(top.child("measurement"), c.measurement);
   read_rut(top.child("rut"), c.measurement.rut);
   read_can(top.child("can"), c.can);
@@ -271,7 +339,8 @@ RutdConfig parse_config(const std::string& yaml_text, const std::string& file) {
   sinks.get<std::string>("socketcan", c.sinks.socketcan)
       .get<std::string>("candump", c.sinks.candump)
       .get<std::string>("can_interface_name", c.sinks.can_interface_name)
-      .get<std::string>("csv", c.sinks.csv);
+      .get<std::string>("csv", c.sinks.csv)
+      .get<std::string>("record", c.sinks.record);
   sinks.finish();
 
   Section pipeline = top.child("pipeline");

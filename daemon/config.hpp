@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "drivers/aravis_config.hpp"
 #include "drivers/can_encoder.hpp"
 #include "drivers/synthetic_renderer.hpp"
 #include "pipeline/measurer.hpp"
@@ -26,6 +27,7 @@ struct SinkConfig {
   std::string candump = "-";  // candump -L log file; "-": standard output; empty: off
   std::string can_interface_name = "can0";  // interface name written in the candump log
   std::string csv;            // measurement CSV file; empty: off
+  std::string record;         // recording folder (raw pairs, DESIGN.md Formats); empty: off
 };
 
 struct PipelineSettings {
@@ -45,6 +47,7 @@ struct RutdConfig {
   SourceKind source = SourceKind::Synthetic;
   SynthParams synthetic;
   ReplaySourceConfig replay;
+  AravisSourceConfig aravis;
   std::string calibration;  // calibration file; synthetic and replay sources bring their own
   MeasurerConfig measurement;
   CanIdConfig can;

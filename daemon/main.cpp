@@ -24,6 +24,8 @@ int main(int argc, char** argv) {
   rutd::add_replay_command(app, exit_code);
   rutd::add_calibrate_command(app, exit_code);
   rutd::add_bench_command(app, exit_code);
+  rutd::add_record_command(app, exit_code);
+  rutd::add_cameras_command(app, exit_code);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

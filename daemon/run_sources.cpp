@@ -1,10 +1,13 @@
 #include "daemon/run_sources.hpp"
 
 #include <fmt/format.h>
+#include <spdlog/spdlog.h>
 
 #include <chrono>
 #include <thread>
 
+#include "drivers/aravis_stereo_source.hpp"
+#include "drivers/calibration.hpp"
 #include "drivers/input_error.hpp"
 #include "drivers/recording.hpp"
 #include "drivers/synthetic_source.hpp"
@@ -57,6 +60,21 @@ class LiveRecordingSource final : public FrameSource {
   std::uint64_t seq_offset_ = 0, last_seq_ = 0;
 };
 
+// Cameras: a configuration the cameras refuse is a start-up error naming the source.aravis key at fault.
+std::unique_ptr<FrameSource> make_camera_source(const RutdConfig& c) {
+  StereoCalibration calibration = load_calibration(c.calibration);  // throws InputError naming the file
+  try {
+    auto source = std::make_unique<AravisStereoSource>(
+        c.aravis, std::move(calibration), std::chrono::milliseconds(static_cast<long>(c.logging.stats_period_s * 1000)));
+    for (const auto& w : source->warnings()) spdlog::warn("{}", w);
+    return source;
+  } catch (const CameraError& e) {
+    throw InputError(c.file, e.field().empty() ? "source.aravis" : "source.aravis." + e.field(), e.what());
+  } catch (const std::invalid_argument& e) {
+    throw InputError(c.file, "source.aravis", e.what());
+  }
+}
+
 }  // namespace
 
 std::unique_ptr<FrameSource> make_source(const RutdConfig& c) {
@@ -70,9 +88,9 @@ std::unique_ptr<FrameSource> make_source(const RutdConfig& c) {
     case SourceKind::Replay:
       return std::make_unique<LiveRecordingSource>(c.replay.dir, c.replay.paced, c.replay.loop);
     case SourceKind::Aravis:
-      break;
+      return make_camera_source(c);
   }
-  throw InputError(c.file, "source.type", "aravis cameras are not supported by this build yet");
+  throw InputError(c.file, "source.type", "unknown source");
 }
 
 std::string describe_source(const RutdConfig& c) {
@@ -83,7 +101,10 @@ std::string describe_source(const RutdConfig& c) {
     case SourceKind::Replay:
       return "recording " + c.replay.dir + (c.replay.paced ? " (paced)" : "") + (c.replay.loop ? " (loop)" : "");
     case SourceKind::Aravis:
-      return "aravis cameras";
+      return fmt::format("cameras {} / {} at {} fps ({})", c.aravis.left, c.aravis.right, c.aravis.fps,
+                         c.aravis.sync == CameraSync::FreeRun           ? "free run"
+                         : c.aravis.sync == CameraSync::SoftwareTrigger ? "software trigger"
+                                                                        : "hardware trigger on " + c.aravis.trigger_line);
   }
   return "?";
 }

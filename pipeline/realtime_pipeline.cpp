@@ -489,7 +489,11 @@ void RealtimePipeline::Impl::publish_loop(std::stop_token st) {
     if (slot != nullptr) publish_one(slot);
 
     now = monotonic_now_ns();
-    if (now >= next_status) {
+    // A source that starts failing (camera lost) is told at once, not at the next period: the status
+    // message is how the vehicle learns that measurements stopped. The periodic phase is kept.
+    const bool newly_failing = source_failing.load(kRelaxed) && (health_bits.load(kRelaxed) & kNoCamera) == 0;
+    const bool periodic = now >= next_status;
+    if (newly_failing || periodic) {
       update_health(now, window);
       try {
         sink.publish_status(health(), now);
@@ -497,6 +501,8 @@ void RealtimePipeline::Impl::publish_loop(std::stop_token st) {
         add(sink_errors);
       }
       add(status_sent);
+    }
+    if (periodic) {
       // Keep the phase; after a stall send one status now rather than a burst.
       next_status = std::max(next_status + period, now + 1);
     }

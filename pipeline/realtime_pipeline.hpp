@@ -87,7 +87,8 @@ struct PipelineConfig {
   // sources). false, or ClockKind::Hardware: latency and age count from the moment acquisition
   // received the pair (a recording's own time base or a camera clock cannot be compared with ours).
   bool capture_clock_is_local = true;
-  // The status message goes to the sink this often, measurements or not.
+  // The status message goes to the sink this often, measurements or not, and at once when the source
+  // starts failing (a camera lost), so that the loss is on the bus without waiting for the period.
   std::chrono::milliseconds status_period{100};
   // SensorHealth::no_camera is raised after this long without a pair (or while the source reports Error).
   std::chrono::milliseconds no_frame_timeout{1000};

@@ -73,6 +73,13 @@ TEST(Config, WrongTypeIsNamed) {
   expect_error("pipeline:\n  cpu_affinity: [0, x]\n", {"pipeline.cpu_affinity", "integer"});
 }
 
+TEST(Config, RecordSinkIsOffByDefaultAndReadAsText) {
+  EXPECT_TRUE(parse_config(default_config_text(), "(embedded default)").sinks.record.empty());
+  EXPECT_EQ(parse_config("sinks:\n  record: /data/rec1\n", "test.yaml").sinks.record, "/data/rec1");
+  expect_error("sinks:\n  record: [a, b]\n", {"line 2", "sinks.record", "expected text"});
+  expect_error("sinks:\n  record:\n    dir: x\n", {"sinks.record", "expected text"});
+}
+
 TEST(Config, ImpossibleValuesAreNamed) {
   expect_error("measurement:\n  near_mm: 900\n  far_mm: 400\n", {"measurement.near_mm", "smaller than far_mm"});
   expect_error("measurement:\n  engine: cuda9\n", {"line 2", "measurement.engine", "cuda9"});
@@ -88,6 +95,40 @@ TEST(Config, MissingCalibrationAndFolderAreNamed) {
   expect_error("source:\n  type: aravis\n", {"calibration", "calibration file"});
   expect_error("source:\n  type: replay\n", {"source.replay.dir", "recording folder"});
   expect_error("source:\n  type: webcam\n", {"line 2", "source.type", "webcam"});
+}
+
+TEST(Config, CameraSectionIsReadAndChecked) {
+  const RutdConfig c = parse_config(
+      "source:\n  type: aravis\n  aravis:\n    left: GV01\n    right: 192.168.3.20\n    pixel_format: bayer\n"
+      "    roi: [8, 16, 1280, 1024]\n    binning: 2\n    fps: 40\n    sync: software_trigger\n"
+      "    exposure_auto: true\n    metering_region: [0, 512, 1280, 512]\n    packet_size: 9000\n"
+      "calibration: rig.yaml\n",
+      "test.yaml");
+  EXPECT_EQ(c.source, SourceKind::Aravis);
+  EXPECT_EQ(c.aravis.left, "GV01");
+  EXPECT_EQ(c.aravis.right, "192.168.3.20");
+  EXPECT_EQ(c.aravis.pixel_format, CameraPixelFormat::Bayer8);
+  EXPECT_EQ(c.aravis.roi.x, 8);
+  EXPECT_EQ(c.aravis.roi.height, 1024);
+  EXPECT_EQ(c.aravis.binning, 2);
+  EXPECT_EQ(c.aravis.sync, CameraSync::SoftwareTrigger);
+  EXPECT_TRUE(c.aravis.exposure_auto);
+  EXPECT_EQ(c.aravis.metering_region.y, 512);
+  EXPECT_EQ(c.aravis.packet_size, 9000);
+
+  const std::string cams = "source:\n  type: aravis\n  aravis:\n    left: A\n    right: B\n";
+  expect_error(cams + "calibration: rig.yaml\n" + "x: 1\n", {"x", "unknown key"});
+  expect_error("source:\n  type: aravis\ncalibration: rig.yaml\n", {"source.aravis.left", "left camera"});
+  expect_error("source:\n  type: aravis\n  aravis:\n    left: A\n    right: A\ncalibration: r.yaml\n",
+               {"source.aravis.right", "same camera"});
+  expect_error(cams + "    sync: genlock\ncalibration: r.yaml\n", {"line 6", "source.aravis.sync", "genlock"});
+  expect_error(cams + "    roi: [0, 0, 640]\ncalibration: r.yaml\n", {"line 6", "source.aravis.roi", "[x, y, width, height]"});
+  expect_error(cams + "    roi: [0, 0, 640, 0]\ncalibration: r.yaml\n", {"source.aravis.roi", "both"});
+  expect_error(cams + "    fps: 100\n    pairing_window_ms: 6\ncalibration: r.yaml\n",
+               {"line 7", "source.aravis.pairing_window_ms", "half the frame period"});
+  expect_error(cams + "    stall_timeout_ms: 10\ncalibration: r.yaml\n", {"source.aravis.stall_timeout_ms", "frame period"});
+  expect_error(cams + "    packet_size: 100\ncalibration: r.yaml\n", {"source.aravis.packet_size", "576"});
+  expect_error(cams + "    buffers: many\ncalibration: r.yaml\n", {"source.aravis.buffers", "an integer"});
 }
 
 TEST(Config, BrokenYamlAndMissingFileAreNamed) {

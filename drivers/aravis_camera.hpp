@@ -1,0 +1,159 @@
+#pragma once
+// One GenICam camera (GigE Vision or USB3 Vision) opened through Aravis: discovery, configuration from
+// `source.aravis`, a stream of preallocated buffers, and conversion of a delivered buffer to a grey image.
+//
+// Thread safety: Aravis objects are not thread-safe, so an AravisCamera is used by one thread at a time.
+// Ownership may move between threads (the connector thread opens it, acquisition uses it, the reaper
+// destroys it) through a synchronised hand-over. Two things run on Aravis's own threads and touch only
+// atomics or the FrameSignal: the stream callback (a buffer is ready) and the device's "control-lost"
+// signal (heartbeat failed).
+#include <arv.h>
+
+#include <condition_variable>
+#include <atomic>
+#include <chrono>
+#include <memory>
+#include <cstdint>
+#include <mutex>
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "drivers/aravis_config.hpp"
+#include "drivers/pixel_convert.hpp"
+
+namespace rutd {
+
+// What discovery says of one camera (`rutd cameras`).
+struct CameraListing {
+  std::string id;        // Aravis device id, what AravisCamera opens
+  std::string protocol;  // GigEVision, USB3Vision
+  std::string vendor;
+  std::string model;
+  std::string serial;
+  std::string address;   // IP address (GigE) or bus path (USB)
+  std::string physical_id;
+};
+
+// Discovers every camera on every interface. Blocks about a second (GigE discovery waits for replies).
+// Not thread-safe with other Aravis discovery or open calls.
+std::vector<CameraListing> list_cameras();
+
+// The listing a selector (device id, serial number, IP address or physical id) names; nullopt if none.
+std::optional<CameraListing> find_camera(const std::vector<CameraListing>& cameras, const std::string& selector);
+
+// A camera could not be opened or configured. `field` is the configuration key at fault (e.g. "roi",
+// "pixel_format"; empty when the camera itself failed); what() says which camera and why.
+class CameraError : public std::runtime_error {
+ public:
+  CameraError(std::string field, const std::string& message) : std::runtime_error(message), field_(std::move(field)) {}
+  const std::string& field() const noexcept { return field_; }
+
+ private:
+  std::string field_;
+};
+
+// Wakes the acquisition thread when a stream has a buffer ready. Shared by both cameras of a pair.
+class FrameSignal {
+ public:
+  void notify() noexcept;
+  // Waits until notify() was called since `seen` (returned by mark()) or until timeout.
+  void wait(std::uint64_t seen, std::chrono::microseconds timeout);
+  std::uint64_t mark() const noexcept { return count_.load(std::memory_order_acquire); }
+
+ private:
+  std::atomic<std::uint64_t> count_{0};
+  std::mutex mutex_;
+  std::condition_variable cv_;
+};
+
+// A delivered image, as the pairing needs it.
+struct CameraFrameInfo {
+  std::uint64_t frame_id = 0;  // the camera's frame counter, unwrapped to 64 bits
+  std::int64_t t_ns = 0;       // the camera's timestamp, nanoseconds
+  bool complete = false;       // every packet arrived (ARV_BUFFER_STATUS_SUCCESS)
+};
+
+class AravisCamera {
+ public:
+  // Opens the camera with this Aravis device id. `label` names it in messages ("left camera GV01").
+  // Throws CameraError("", ...) when it cannot be opened.
+  AravisCamera(const std::string& device_id, std::string label);
+  // Stops acquisition (unless the camera is lost) and releases it. Releasing a camera that no longer
+  // answers blocks for Aravis's register timeouts (seconds): hand lost cameras to a thread that may wait.
+  ~AravisCamera();
+  AravisCamera(const AravisCamera&) = delete;
+  AravisCamera& operator=(const AravisCamera&) = delete;
+
+  // Applies the configuration: pixel format, binning, region, frame rate, synchronisation, exposure,
+  // gain, GigE packet size/delay. Throws CameraError naming the configuration key. Things the camera
+  // cannot do that do not change the images (PTP, metering region, auto limits) append a warning.
+  void configure(const AravisSourceConfig& config, std::vector<std::string>& warnings);
+  // Image size and pixel layout the camera now delivers (after configure()).
+  cv::Size image_size() const noexcept { return size_; }
+  CameraPixelLayout layout() const noexcept { return layout_; }
+
+  // Creates the stream with `buffers` preallocated buffers and starts acquisition. `signal` is notified
+  // from Aravis's stream thread for every finished buffer; the camera keeps it alive as long as its stream.
+  void start(const AravisSourceConfig& config, std::shared_ptr<FrameSignal> signal, std::vector<std::string>& warnings);
+
+  // A finished buffer, or nullptr. The buffer stays the camera's: give it back with requeue().
+  ArvBuffer* try_pop() noexcept;
+  void requeue(ArvBuffer* buffer) noexcept;
+  CameraFrameInfo info(ArvBuffer* buffer) noexcept;
+  // Converts the buffer's image to grey into `out` (reused when it fits). false: wrong size or format.
+  bool convert(ArvBuffer* buffer, cv::Mat& out) noexcept;
+
+  // Fires TriggerSoftware. false when the camera did not take the command.
+  bool software_trigger() noexcept;
+  // The device's heartbeat failed (set from Aravis's thread).
+  bool control_lost() const noexcept { return control_lost_.load(std::memory_order_acquire); }
+  // From now on the destructor does not talk to the camera (it is gone).
+  void mark_lost() noexcept { lost_ = true; }
+
+  // Name and current value of the features rutd sets, for `rutd cameras`.
+  std::vector<std::pair<std::string, std::string>> feature_values();
+
+  // Where the camera was found (discovery's listing), kept to find it again after a loss.
+  void remember(CameraListing listing) { listing_ = std::move(listing); }
+  const CameraListing& listing() const noexcept { return listing_; }
+  const std::string& label() const noexcept { return label_; }
+  const std::string& device_id() const noexcept { return device_id_; }
+  bool is_gige() const noexcept { return gige_; }
+
+ private:
+  static void on_control_lost(ArvDevice* device, gpointer self);
+  static void on_stream_event(void* signal, ArvStreamCallbackType type, ArvBuffer* buffer);
+  void set_pixel_format(const AravisSourceConfig& config);
+  void set_geometry(const AravisSourceConfig& config);
+  void set_sync(const AravisSourceConfig& config, std::vector<std::string>& warnings);
+  void set_exposure_and_gain(const AravisSourceConfig& config, std::vector<std::string>& warnings);
+  void set_gige(const AravisSourceConfig& config, std::vector<std::string>& warnings);
+  [[noreturn]] void fail(const std::string& field, const std::string& what, GError* error);
+  bool has(const char* feature);
+
+  std::string device_id_;
+  std::string label_;
+  CameraListing listing_;
+  ArvCamera* camera_ = nullptr;
+  ArvDevice* device_ = nullptr;  // owned by camera_
+  ArvStream* stream_ = nullptr;
+  std::shared_ptr<FrameSignal> signal_;
+  gulong control_lost_handler_ = 0;
+  std::atomic<bool> control_lost_{false};
+  bool lost_ = false;
+  bool acquiring_ = false;
+  bool gige_ = false;
+  bool short_frame_ids_ = false;  // GigE Vision 1.x block ids: 16 bits, 0 skipped
+  cv::Size size_;
+  CameraPixelLayout layout_ = CameraPixelLayout::Mono8;
+  std::uint64_t last_raw_id_ = 0;
+  std::uint64_t id_base_ = 0;
+  bool have_id_ = false;
+};
+
+}  // namespace rutd

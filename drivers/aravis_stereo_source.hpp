@@ -1,0 +1,117 @@
+#pragma once
+// Two Aravis cameras as one FrameSource of synchronised pairs (DESIGN.md, step 1).
+//
+// - Acquisition (the pipeline's acquire thread, the only caller of next()) pops finished buffers from both
+//   streams, pairs them with StereoPairer (by hardware timestamp when free-running, by frame id when
+//   triggered; a pair whose skew exceeds pairing_window_ms never comes out), converts the pair to grey
+//   and gives the buffers straight back to their streams. Buffers are preallocated; nothing is allocated
+//   per frame once the frame's images have their size.
+// - Software trigger: next() fires TriggerSoftware on both cameras, one after the other, at `fps`.
+// - Faults: a camera whose heartbeat fails (Aravis "control-lost") or that delivers nothing for
+//   stall_timeout_ms is declared lost: next() returns Error at once (the pipeline raises no_camera in the
+//   status message), the other camera keeps streaming (its frames are dropped as unmatched), and a
+//   connector thread reopens the lost one with backoff (reconnect_min_ms doubling to reconnect_max_ms; a
+//   USB3 Vision arrival reported by libusb hot-plug triggers an attempt at once). Once it is back and
+//   configured, pairs resume; the daemon never exits because a camera went away.
+// - Releasing a camera that no longer answers blocks in Aravis for seconds (register timeouts), so lost
+//   cameras are released on a reaper thread, never on the acquisition thread.
+#include <array>
+#include <chrono>
+#include <cstdint>
+#include <memory>
+#include <string>
+
+#include "drivers/aravis_camera.hpp"
+#include "drivers/aravis_config.hpp"
+#include "drivers/calibration.hpp"
+#include "drivers/frame_source.hpp"
+#include "drivers/stereo_pairing.hpp"
+
+namespace rutd {
+
+struct AravisSourceStats {
+  PairingStats pairing;
+  std::array<std::uint64_t, 2> incomplete{};    // buffers with missing packets, requeued (left, right)
+  std::array<std::uint64_t, 2> losses{};        // times each camera was declared lost
+  std::array<std::uint64_t, 2> reconnects{};    // times each camera came back
+  std::uint64_t convert_failures = 0;           // pairs whose image had the wrong size or format
+  std::uint64_t triggers = 0;                   // software trigger rounds fired
+  std::uint64_t trigger_failures = 0;           // TriggerSoftware commands a camera refused
+};
+
+// One line for the log: pairs, skew p50/p99/max, drops per side and why, faults.
+std::string describe(const AravisSourceStats& stats);
+
+class AravisStereoSource final : public FrameSource {
+ public:
+  static constexpr int kMaxBuffers = 64;
+
+  // Finds both cameras (by id, serial or address), configures and starts them. Throws CameraError when a
+  // camera is found but refuses the configuration, or delivers images of another size than the
+  // calibration's; the error's field() is the `source.aravis` key at fault. A camera that is not found
+  // is not an error: the source starts without it (warning logged), next() reports Error and the
+  // connector keeps looking for it. Throws std::invalid_argument ("field: why") for an unusable
+  // configuration. The pairing and fault counters are logged every log_period (0: only at destruction).
+  AravisStereoSource(const AravisSourceConfig& config, StereoCalibration calibration,
+                     std::chrono::milliseconds log_period = std::chrono::milliseconds(10000));
+  ~AravisStereoSource() override;
+  AravisStereoSource(const AravisStereoSource&) = delete;
+  AravisStereoSource& operator=(const AravisStereoSource&) = delete;
+
+  // Waits at most ~100 ms: Ok with a pair (raw grey images, t_ns = the left camera's hardware timestamp,
+  // shifted after a camera clock reset so that it never goes backwards; clock Hardware), Timeout when none came, Error while a camera is lost (error_message() says which and
+  // why). Acquisition thread only.
+  SourceStatus next(StereoFrame& frame) override;
+  const StereoCalibration& calibration() const override { return calibration_; }
+  const std::string& error_message() const override { return error_; }
+
+  // Acquisition thread, or any thread once next() is no longer called.
+  AravisSourceStats stats() const;
+  // Warnings gathered while configuring (missing PTP, small kernel buffers, ...), for the start-up log.
+  const std::vector<std::string>& warnings() const noexcept { return warnings_; }
+
+ private:
+  class Connector;
+  class Reaper;
+  class PairSink;
+  struct Side {
+    std::unique_ptr<AravisCamera> camera;
+    std::int64_t last_frame_ns = 0;  // CLOCK_MONOTONIC of the last buffer (or of the start)
+    bool awaiting_first = true;
+    std::int64_t lost_since_ns = 0;
+    std::array<ArvBuffer*, kMaxBuffers> held{};  // buffers the pairer holds, by FrameDescriptor::buffer
+  };
+
+  void adopt_connected();
+  bool check_faults(std::int64_t now);
+  void lose(std::size_t side, const std::string& why);
+  void fire_triggers(std::int64_t now);
+  void drain(std::size_t side);
+  void requeue(const FrameDescriptor& frame) noexcept;
+  bool take_pair(StereoFrame& frame);
+  SourceStatus report_lost(std::int64_t now);
+  void log_stats(std::int64_t now);
+
+  AravisSourceConfig config_;
+  StereoCalibration calibration_;
+  std::shared_ptr<FrameSignal> signal_;
+  std::unique_ptr<Reaper> reaper_;
+  std::unique_ptr<Connector> connector_;
+  std::unique_ptr<PairSink> sink_;
+  StereoPairer pairer_;
+  std::array<Side, 2> sides_;
+  std::vector<std::string> warnings_;
+  std::string error_;
+  std::uint64_t seq_ = 0;
+  std::int64_t t_offset_ns_ = 0;      // added to camera timestamps after a clock reset
+  std::int64_t last_t_ns_ = 0;
+  std::int64_t last_pair_mono_ns_ = 0;
+  std::int64_t trigger_period_ns_ = 0;
+  std::int64_t next_trigger_ns_ = 0;
+  std::int64_t stall_ns_ = 0;
+  std::int64_t log_period_ns_ = 0;
+  std::int64_t next_log_ns_ = 0;
+  AravisSourceStats stats_;
+};
+
+}  // namespace rutd

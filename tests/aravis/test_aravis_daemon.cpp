@@ -1,0 +1,247 @@
+// The rutd program against two fake GigE Vision cameras (fake_stereo_rig.hpp), as a person would use it:
+// `rutd cameras` lists them; `rutd run` with `source.type: aravis` discovers, configures and pairs them and
+// measures the rendered rut; one camera stopped mid-stream is flagged in the status CAN message within
+// 200 ms without the daemon exiting, and measurements resume within 2 s of the camera coming back. The
+// CAN log is decoded by canmatrix with config/rutd.dbc (tests/can/decode_candump.py), not by rutd.
+#include <gtest/gtest.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <map>
+#include <sstream>
+#include <thread>
+
+#include "aravis/fake_stereo_rig.hpp"
+#include "drivers/calibration.hpp"
+#include "test_support.hpp"
+
+namespace rutd {
+namespace {
+
+using namespace std::chrono_literals;
+
+std::int64_t wall_ns() {
+  return std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::system_clock::now().time_since_epoch())
+      .count();
+}
+
+SynthParams scene() {
+  SynthParams p;
+  p.rig.image_size = {640, 480};
+  p.rut.depth_mm = 45;
+  p.seed = 5;
+  return p;
+}
+
+// rutd run in the background, stderr to a file; SIGTERM and reaped on destruction.
+class Daemon {
+ public:
+  Daemon(const std::string& args, const std::string& log) {
+    pid_ = fork();
+    if (pid_ == 0) {
+      // Appended piecewise: GCC 12 warns falsely (-Wrestrict) on "..." + quoted(...) here.
+      std::string cmd = "exec '";
+      cmd += RUTD_BINARY;
+      cmd += "' ";
+      cmd += args;
+      cmd += " 2>'";
+      cmd += log;
+      cmd += "'";
+      execl("/bin/sh", "sh", "-c", cmd.c_str(), static_cast<char*>(nullptr));
+      _exit(127);
+    }
+  }
+  ~Daemon() {
+    if (pid_ > 0 && !exited_) stop();
+  }
+  bool running() {
+    if (exited_) return false;
+    int status = 0;
+    if (waitpid(pid_, &status, WNOHANG) == pid_) {
+      exited_ = true;
+      status_ = status;
+    }
+    return !exited_;
+  }
+  // SIGTERM; the exit status, -1 when it did not exit normally.
+  int stop() {
+    if (!exited_) {
+      kill(pid_, SIGTERM);
+      waitpid(pid_, &status_, 0);
+      exited_ = true;
+    }
+    return WIFEXITED(status_) ? WEXITSTATUS(status_) : -1;
+  }
+
+ private:
+  pid_t pid_ = -1;
+  bool exited_ = false;
+  int status_ = 0;
+};
+
+std::size_t count_lines(const std::filesystem::path& p) {
+  std::ifstream in(p);
+  std::size_t n = 0;
+  std::string line;
+  while (std::getline(in, line)) ++n;
+  return n;
+}
+
+// Decoded signals of one CAN log: (frame index, wall time ns, message) -> signal -> physical value.
+struct DecodedFrame {
+  std::int64_t t_ns = 0;
+  std::string message;
+  std::map<std::string, double> signals;
+};
+
+std::vector<DecodedFrame> decode(const std::filesystem::path& log, const std::filesystem::path& out) {
+  const std::string cmd = std::string("/usr/bin/python3 ") + RUTD_SOURCE_DIR + "/tests/can/decode_candump.py " +
+                          RUTD_SOURCE_DIR + "/config/rutd.dbc " + test::quoted(log) + " >" + test::quoted(out) +
+                          " 2>" + test::quoted(out.string() + ".err");
+  EXPECT_EQ(test::run_shell(cmd), 0) << test::read_text(out.string() + ".err");
+  std::vector<DecodedFrame> frames;
+  std::ifstream in(out);
+  std::string line;
+  std::getline(in, line);  // header
+  long last_index = -1;
+  while (std::getline(in, line)) {
+    std::stringstream ss(line);
+    std::string index, t, message, signal, raw, phys;
+    std::getline(ss, index, ',');
+    std::getline(ss, t, ',');
+    std::getline(ss, message, ',');
+    std::getline(ss, signal, ',');
+    std::getline(ss, raw, ',');
+    std::getline(ss, phys, ',');
+    if (std::stol(index) != last_index) {
+      frames.push_back({std::stoll(t), message, {}});
+      last_index = std::stol(index);
+    }
+    frames.back().signals[signal] = std::stod(phys);
+  }
+  return frames;
+}
+
+class AravisDaemon : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    if (const std::string why = test::fake_rig_unavailable(); !why.empty()) GTEST_SKIP() << why;
+  }
+
+  // A configuration for the fake rig, calibration saved next to it.
+  std::filesystem::path write_config(const test::FakeStereoRig& rig) {
+    save_calibration((dir_.path() / "calibration.yaml").string(), rig.calibration());
+    const auto path = dir_.path() / "rutd.yaml";
+    std::ofstream(path) << "source:\n"
+                           "  type: aravis\n"
+                           "  aravis:\n"
+                           "    left: RUTDL01\n"
+                           "    right: RUTDR01\n"
+                           "    roi: [0, 0, 640, 480]\n"
+                           "    fps: 25\n"
+                           "    pairing_window_ms: 8   # the fake cameras' timestamps jitter by ms\n"
+                           "calibration: "
+                        << (dir_.path() / "calibration.yaml").string()
+                        << "\n"
+                           "sinks:\n"
+                           "  candump: "
+                        << (dir_.path() / "can.log").string() << "\n  csv: " << (dir_.path() / "m.csv").string()
+                        << "\nlogging:\n  stats_period_s: 2\n";
+    return path;
+  }
+
+  test::TempDir dir_;
+};
+
+TEST_F(AravisDaemon, CamerasCommandListsBothFakeCamerasAndTheirFeatures) {
+  test::FakeStereoRig rig(scene(), 1);
+  const auto out = dir_.path() / "cameras.txt";
+  ASSERT_EQ(test::run_rutd("cameras --camera RUTDL01 --camera 127.0.0.2 >" + test::quoted(out)), 0);
+  const std::string text = test::read_text(out);
+  std::printf("%s", text.c_str());
+  for (const char* expected : {"GigEVision", "RUTDL01", "RUTDR01", "127.0.0.1", "127.0.0.2", "Aravis", "Fake",
+                               "PixelFormat", "Width", "TriggerSource", "GevSCPSPacketSize"})
+    EXPECT_NE(text.find(expected), std::string::npos) << expected;
+  EXPECT_NE(test::run_rutd("cameras --camera NOSUCHCAMERA >/dev/null", (dir_.path() / "err.txt").string()), 0);
+  EXPECT_NE(test::read_text(dir_.path() / "err.txt").find("NOSUCHCAMERA': not found"), std::string::npos);
+}
+
+TEST_F(AravisDaemon, RunMeasuresTheRutAndRidesThroughALostCamera) {
+  test::FakeStereoRig rig(scene(), 6);
+  const double truth = rig.renderer().truth(0).depth_mm;
+  const auto config = write_config(rig);
+  const auto log = dir_.path() / "rutd.log";
+  Daemon daemon("run --config " + test::quoted(config), log.string());
+
+  // Measuring: wait for 30 measurements.
+  const auto csv = dir_.path() / "m.csv";
+  for (auto t0 = std::chrono::steady_clock::now(); count_lines(csv) < 31 && std::chrono::steady_clock::now() - t0 < 60s;)
+    std::this_thread::sleep_for(50ms);
+  ASSERT_GE(count_lines(csv), 31u) << test::read_text(log);
+
+  const std::int64_t stopped_ns = wall_ns();
+  rig.stop(1);
+  std::this_thread::sleep_for(1500ms);
+  ASSERT_TRUE(daemon.running()) << test::read_text(log);
+  const std::int64_t restarted_ns = wall_ns();
+  rig.start(1);
+  std::this_thread::sleep_for(3000ms);
+  ASSERT_TRUE(daemon.running()) << test::read_text(log);
+  EXPECT_EQ(daemon.stop(), 0) << test::read_text(log);
+
+  const std::string text = test::read_text(log);
+  {
+    std::istringstream lines(text);
+    for (std::string line; std::getline(lines, line);)
+      if (line.find("camera") != std::string::npos) std::printf("rutd: %s\n", line.c_str());
+  }
+  const std::vector<DecodedFrame> frames = decode(dir_.path() / "can.log", dir_.path() / "decoded.csv");
+  std::int64_t flagged_ns = 0, resumed_ns = 0, cleared_ns = 0;
+  int before = 0, before_ok = 0, after = 0;
+  double worst = 0;
+  for (const DecodedFrame& f : frames) {
+    if (f.message == "RutSensorStatus") {
+      const bool no_camera = f.signals.at("NoCamera") != 0;
+      if (f.t_ns > stopped_ns && f.t_ns < restarted_ns && no_camera && flagged_ns == 0) flagged_ns = f.t_ns;
+      if (f.t_ns > restarted_ns && resumed_ns != 0 && !no_camera && cleared_ns == 0) cleared_ns = f.t_ns;
+    } else if (f.message == "RutMeasurement1") {
+      if (f.t_ns < stopped_ns) {
+        ++before;
+        if (f.signals.at("RutM1_Status") == 0) {
+          ++before_ok;
+          worst = std::max(worst, std::abs(f.signals.at("RutDepth") - truth));
+        }
+      } else if (f.t_ns > restarted_ns) {
+        ++after;
+        if (resumed_ns == 0) resumed_ns = f.t_ns;
+      } else {
+        // Pairs already in the pipeline when the camera went are still published; nothing after.
+        EXPECT_LT(f.t_ns, stopped_ns + 500'000'000) << "a measurement while a camera was lost";
+      }
+    }
+  }
+  std::printf("before the fault: %d measurements, %d OK, worst |depth - truth| %.2f mm (truth %.2f)\n", before,
+              before_ok, worst, truth);
+  std::printf("right camera stopped: NoCamera on CAN after %.0f ms\n", (flagged_ns - stopped_ns) * 1e-6);
+  std::printf("right camera restarted: first measurement after %.0f ms, NoCamera cleared after %.0f ms; %d "
+              "measurements after\n",
+              (resumed_ns - restarted_ns) * 1e-6, (cleared_ns - restarted_ns) * 1e-6, after);
+  EXPECT_GE(before_ok, before * 9 / 10);
+  EXPECT_LT(worst, 1.0);
+  ASSERT_NE(flagged_ns, 0) << "NoCamera never raised";
+  EXPECT_LE(flagged_ns - stopped_ns, 200'000'000);
+  ASSERT_NE(resumed_ns, 0) << "no measurement after the camera came back";
+  EXPECT_LE(resumed_ns - restarted_ns, 2'000'000'000);
+  EXPECT_GT(after, 10);
+  EXPECT_NE(text.find("right camera RUTDR01: no frame for"), std::string::npos) << text;
+  EXPECT_NE(text.find("right camera RUTDR01: back after"), std::string::npos) << text;
+  EXPECT_NE(text.find("skew |right-left| p50"), std::string::npos) << text;
+}
+
+}  // namespace
+}  // namespace rutd
