@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
+#include <algorithm>
 #include <chrono>
 #include <thread>
 
@@ -16,7 +17,8 @@ namespace rutd {
 namespace {
 
 // A recording played back as if live: at its own timestamps (paced) and, if asked, over and over. Sequence
-// numbers keep increasing across loops so the pipeline never sees them go backwards.
+// numbers and timestamps keep increasing across loops so that neither the pipeline nor a recording of
+// the replay sees them go backwards.
 class LiveRecordingSource final : public FrameSource {
  public:
   LiveRecordingSource(std::string dir, bool paced, bool loop)
@@ -26,14 +28,24 @@ class LiveRecordingSource final : public FrameSource {
     SourceStatus s = reader_->next(frame);
     if (s == SourceStatus::EndOfStream && loop_ && reader_->pairs_read() > 0) {
       seq_offset_ = last_seq_ + 1;
+      // The next loop continues the time line one frame step later (recordings need it increasing).
+      t_offset_ns_ = last_t_ns_ + std::max<std::int64_t>(last_t_ns_ - previous_t_ns_, 1);
+      first_of_loop_ = true;
       reader_ = std::make_unique<RecordingReader>(dir_);
       started_ = false;
       s = reader_->next(frame);
     }
     if (s != SourceStatus::Ok) return s;
     if (paced_) pace(frame.t_ns);
+    if (first_of_loop_) {
+      loop_base_ns_ = frame.t_ns;  // this loop's first pair lands just after the previous loop's last
+      first_of_loop_ = false;
+    }
     frame.seq += seq_offset_;
+    frame.t_ns = frame.t_ns - loop_base_ns_ + t_offset_ns_;
     last_seq_ = frame.seq;
+    previous_t_ns_ = last_t_ns_;
+    last_t_ns_ = frame.t_ns;
     return s;
   }
   const StereoCalibration& calibration() const override { return reader_->calibration(); }
@@ -58,6 +70,9 @@ class LiveRecordingSource final : public FrameSource {
   std::int64_t first_t_ns_ = 0;
   std::chrono::steady_clock::time_point start_;
   std::uint64_t seq_offset_ = 0, last_seq_ = 0;
+  // Timestamps of later loops: shifted so that they keep increasing (0 for the first loop).
+  bool first_of_loop_ = false;
+  std::int64_t loop_base_ns_ = 0, t_offset_ns_ = 0, last_t_ns_ = 0, previous_t_ns_ = 0;
 };
 
 // Cameras: a configuration the cameras refuse is a start-up error naming the source.aravis key at fault.
