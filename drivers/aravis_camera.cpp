@@ -72,7 +72,7 @@ void FrameSignal::wait(std::uint64_t seen, std::chrono::microseconds timeout) {
 }
 
 AravisCamera::AravisCamera(const std::string& device_id, std::string label)
-    : device_id_(device_id), label_(std::move(label)) {
+    : label_(std::move(label)) {
   ErrorGuard error;
   camera_ = arv_camera_new(device_id.c_str(), &error);
   if (camera_ == nullptr)

@@ -122,8 +122,6 @@ class AravisCamera {
   void remember(CameraListing listing) { listing_ = std::move(listing); }
   const CameraListing& listing() const noexcept { return listing_; }
   const std::string& label() const noexcept { return label_; }
-  const std::string& device_id() const noexcept { return device_id_; }
-  bool is_gige() const noexcept { return gige_; }
 
  private:
   static void on_control_lost(ArvDevice* device, gpointer self);
@@ -136,7 +134,6 @@ class AravisCamera {
   [[noreturn]] void fail(const std::string& field, const std::string& what, GError* error);
   bool has(const char* feature);
 
-  std::string device_id_;
   std::string label_;
   CameraListing listing_;
   ArvCamera* camera_ = nullptr;

@@ -334,12 +334,7 @@ AravisStereoSource::AravisStereoSource(const AravisSourceConfig& config, StereoC
 
 AravisStereoSource::~AravisStereoSource() {
   connector_.reset();  // stops opening cameras
-  pairer_.flush(*sink_);
-  FramePair pair;
-  while (sink_->pop(pair)) {
-    requeue(pair.left);
-    requeue(pair.right);
-  }
+  release_pending();
   for (Side& side : sides_) side.camera.reset();  // healthy cameras: a prompt AcquisitionStop
   spdlog::info("cameras: {}", describe(stats()));
 }
@@ -349,6 +344,16 @@ void AravisStereoSource::requeue(const FrameDescriptor& frame) noexcept {
   ArvBuffer*& held = side.held[frame.buffer];
   if (held != nullptr && side.camera) side.camera->requeue(held);
   held = nullptr;
+}
+
+void AravisStereoSource::release_pending() noexcept {
+  // Every buffer the pairer or the ready ring holds goes back to its stream.
+  pairer_.flush(*sink_);
+  FramePair pair;
+  while (sink_->pop(pair)) {
+    requeue(pair.left);
+    requeue(pair.right);
+  }
 }
 
 void AravisStereoSource::adopt_connected() {
@@ -370,13 +375,7 @@ void AravisStereoSource::lose(std::size_t s, const std::string& why) {
   Side& side = sides_[s];
   error_ = fmt::format("{}: {}; reconnecting", side.camera->label(), why);
   spdlog::error("{}", error_);
-  // Every buffer the pairer or the ready ring holds goes back before the camera is released.
-  pairer_.flush(*sink_);
-  FramePair pair;
-  while (sink_->pop(pair)) {
-    requeue(pair.left);
-    requeue(pair.right);
-  }
+  release_pending();  // before the camera's buffers go with it
   CameraListing known = side.camera->listing();
   reaper_->take(std::move(side.camera));
   side.lost_since_ns = now_ns();

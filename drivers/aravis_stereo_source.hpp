@@ -88,6 +88,7 @@ class AravisStereoSource final : public FrameSource {
   void fire_triggers(std::int64_t now);
   void drain(std::size_t side);
   void requeue(const FrameDescriptor& frame) noexcept;
+  void release_pending() noexcept;
   bool take_pair(StereoFrame& frame);
   SourceStatus report_lost(std::int64_t now);
   void log_stats(std::int64_t now);

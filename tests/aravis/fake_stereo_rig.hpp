@@ -98,7 +98,6 @@ class FakeStereoRig {
 
   const SyntheticRenderer& renderer() const { return renderer_; }
   const StereoCalibration& calibration() const { return renderer_.calibration(); }
-  std::uint64_t frames_filled(std::size_t side) const { return feeds_[side]->filled.load(); }
   // The rendered views the cameras send (8-bit, and x 257 as 16-bit): view i is the renderer's frame i.
   const std::vector<cv::Mat>& views(std::size_t side) const { return feeds_[side]->views; }
   const std::vector<cv::Mat>& views16(std::size_t side) const { return feeds_[side]->views16; }
@@ -107,7 +106,6 @@ class FakeStereoRig {
   struct Feed {
     std::vector<cv::Mat> views;    // CV_8UC1, read-only once the cameras run
     std::vector<cv::Mat> views16;  // the same as CV_16UC1 (x 257), for Mono16
-    std::atomic<std::uint64_t> filled{0};
   };
 
   static SynthParams adjusted(SynthParams p) {
@@ -126,7 +124,6 @@ class FakeStereoRig {
     if (out == nullptr || width > view.cols || height > view.rows) return;  // rutd checks sizes itself
     const std::size_t row_bytes = static_cast<std::size_t>(width) * view.elemSize();
     for (int y = 0; y < height; ++y) std::memcpy(out + static_cast<std::size_t>(y) * row_bytes, view.ptr(y), row_bytes);
-    feed.filled.fetch_add(1);
   }
 
   SyntheticRenderer renderer_;
