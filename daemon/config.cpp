@@ -281,7 +281,8 @@ void read_aravis(Section s, AravisSourceConfig& a) {
       .get<int>("packet_size", a.packet_size, in_range(0, 16384))
       .get<int>("packet_delay_ns", a.packet_delay_ns, in_range(0, 100000000))
       .get<int>("socket_buffer_bytes", a.socket_buffer_bytes, in_range(0, 1 << 30))
-      .get<bool>("packet_resend", a.packet_resend);
+      .get<bool>("packet_resend", a.packet_resend)
+      .get<bool>("packet_socket", a.packet_socket);
   read_region(s, "roi", a.roi);
   read_region(s, "metering_region", a.metering_region);
   if (a.exposure_min_us > a.exposure_max_us) s.fail("exposure_min_us", "must not be above exposure_max_us");

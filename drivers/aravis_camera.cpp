@@ -301,12 +301,17 @@ void AravisCamera::start(const AravisSourceConfig& c, std::shared_ptr<FrameSigna
                          std::vector<std::string>& warnings) {
   ErrorGuard error;
   signal_ = std::move(signal);
+  if (arv_camera_is_gv_device(camera_) && !c.packet_socket)
+    arv_camera_gv_set_stream_options(camera_, ARV_GV_STREAM_OPTION_PACKET_SOCKET_DISABLED);
   stream_ = arv_camera_create_stream(camera_, &AravisCamera::on_stream_event,
                                      signal_.get(), &error);
   if (stream_ == nullptr) fail("", "cannot open its stream", error.error);
   if (ARV_IS_GV_STREAM(stream_)) {
+    // A frame arrives as one burst of packets faster than a busy thread drains them, and each packet costs
+    // the kernel about twice its size in buffer accounting: one frame's worth (Aravis's automatic size)
+    // overflows. Four frames ride out a late wake-up.
     const long payload = static_cast<long>(arv_camera_get_payload(camera_, nullptr));
-    const long asked = c.socket_buffer_bytes > 0 ? c.socket_buffer_bytes : payload;
+    const long asked = c.socket_buffer_bytes > 0 ? c.socket_buffer_bytes : 4 * payload;
     const long cap = kernel_rmem_max();
     if (cap > 0 && cap < asked)
       warnings.push_back(fmt::format(
@@ -314,10 +319,8 @@ void AravisCamera::start(const AravisSourceConfig& c, std::shared_ptr<FrameSigna
           "frames will lose packets under load: install systemd/60-rutd-gige.conf or raise net.core.rmem_max",
           label_, cap, asked));
     g_object_set(stream_, "packet-resend", c.packet_resend ? ARV_GV_STREAM_PACKET_RESEND_ALWAYS : ARV_GV_STREAM_PACKET_RESEND_NEVER,
+                 "socket-buffer", ARV_GV_STREAM_SOCKET_BUFFER_FIXED, "socket-buffer-size", static_cast<gint>(asked),
                  nullptr);
-    if (c.socket_buffer_bytes > 0)
-      g_object_set(stream_, "socket-buffer", ARV_GV_STREAM_SOCKET_BUFFER_FIXED, "socket-buffer-size",
-                   c.socket_buffer_bytes, nullptr);
   }
   const gint payload = static_cast<gint>(arv_camera_get_payload(camera_, &error));
   if (error) fail("", "cannot read its payload size", error.error);

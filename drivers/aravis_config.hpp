@@ -60,8 +60,13 @@ struct AravisSourceConfig {
   // GigE Vision only.
   int packet_size = 0;              // bytes; 0: negotiate the largest the path carries
   int packet_delay_ns = 0;          // inter-packet delay (GevSCPD), 0: none
-  int socket_buffer_bytes = 0;      // receive buffer asked of the kernel; 0: Aravis's automatic size
+  int socket_buffer_bytes = 0;      // receive buffer asked of the kernel; 0: four frames
   bool packet_resend = true;
+  // Aravis's AF_PACKET receiver (needs CAP_NET_RAW) costs less CPU per packet, but Aravis 0.8 binds it to
+  // the interface before attaching its filter: a stream (re)opened while the other camera streams on the
+  // same interface can take one of that camera's frame ids as its latest, then discard its own frames as
+  // late until their ids pass it (seen: seconds). Off: the UDP socket sees only its own port.
+  bool packet_socket = false;
 };
 
 }  // namespace rutd

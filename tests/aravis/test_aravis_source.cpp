@@ -56,8 +56,8 @@ class AravisSource : public ::testing::Test {
   }
 };
 
-// Collects `n` pairs. Source errors are counted and printed, not fatal: a fake camera occasionally
-// does not start streaming on a loaded machine, and rutd then reopens it (which is what it should do);
+// Collects `n` pairs. Source errors are counted and printed, not fatal: on a starved machine a stream
+// can go silent past the stall timeout, and rutd then reopens the camera (which is what it should do);
 // the tests bound how often that may happen.
 std::vector<StereoFrame> collect(AravisStereoSource& source, int n, int* errors = nullptr, int max_calls = 400) {
   std::vector<StereoFrame> frames;
@@ -171,6 +171,8 @@ TEST_F(AravisSource, LostCameraIsReportedAndReconnectedWithoutRestart) {
   c.stall_timeout_ms = 150;
   AravisStereoSource source(c, rig.calibration());
   ASSERT_EQ(collect(source, 5).size(), 5u);
+  // Counted from here: a starved test machine can stall a stream past 150 ms before the fault too.
+  const AravisSourceStats before = source.stats();
 
   rig.stop(1);
   const auto stopped = Clock::now();
@@ -197,9 +199,9 @@ TEST_F(AravisSource, LostCameraIsReportedAndReconnectedWithoutRestart) {
   EXPECT_LT(resume_ms, 2000.0);
   ASSERT_EQ(collect(source, 5).size(), 5u);
   const AravisSourceStats stats = source.stats();
-  EXPECT_EQ(stats.losses[1], 1u);
-  EXPECT_EQ(stats.reconnects[1], 1u);
-  EXPECT_EQ(stats.losses[0], 0u);
+  EXPECT_EQ(stats.losses[1] - before.losses[1], 1u);
+  EXPECT_EQ(stats.reconnects[1] - before.reconnects[1], 1u);
+  EXPECT_EQ(stats.losses[0], before.losses[0]);
 }
 
 TEST_F(AravisSource, CameraNotFoundAtStartIsWaitedFor) {

@@ -102,6 +102,7 @@ TEST(Config, CameraSectionIsReadAndChecked) {
       "source:\n  type: aravis\n  aravis:\n    left: GV01\n    right: 192.168.3.20\n    pixel_format: bayer\n"
       "    roi: [8, 16, 1280, 1024]\n    binning: 2\n    fps: 40\n    sync: software_trigger\n"
       "    exposure_auto: true\n    metering_region: [0, 512, 1280, 512]\n    packet_size: 9000\n"
+      "    packet_socket: true\n"
       "calibration: rig.yaml\n",
       "test.yaml");
   EXPECT_EQ(c.source, SourceKind::Aravis);
@@ -115,6 +116,9 @@ TEST(Config, CameraSectionIsReadAndChecked) {
   EXPECT_TRUE(c.aravis.exposure_auto);
   EXPECT_EQ(c.aravis.metering_region.y, 512);
   EXPECT_EQ(c.aravis.packet_size, 9000);
+  EXPECT_TRUE(c.aravis.packet_socket);
+  EXPECT_FALSE(parse_config("source:\n  type: aravis\n  aravis:\n    left: A\n    right: B\ncalibration: r.yaml\n",
+                            "test.yaml").aravis.packet_socket);
 
   const std::string cams = "source:\n  type: aravis\n  aravis:\n    left: A\n    right: B\n";
   expect_error(cams + "calibration: rig.yaml\n" + "x: 1\n", {"x", "unknown key"});
