@@ -306,12 +306,14 @@ void AravisCamera::start(const AravisSourceConfig& c, std::shared_ptr<FrameSigna
   stream_ = arv_camera_create_stream(camera_, &AravisCamera::on_stream_event,
                                      signal_.get(), &error);
   if (stream_ == nullptr) fail("", "cannot open its stream", error.error);
+  // One register read over the network: it sizes both the socket buffer and the stream buffers.
+  const gint payload = static_cast<gint>(arv_camera_get_payload(camera_, &error));
+  if (error) fail("", "cannot read its payload size", error.error);
   if (ARV_IS_GV_STREAM(stream_)) {
     // A frame arrives as one burst of packets faster than a busy thread drains them, and each packet costs
     // the kernel about twice its size in buffer accounting: one frame's worth (Aravis's automatic size)
     // overflows. Four frames ride out a late wake-up.
-    const long payload = static_cast<long>(arv_camera_get_payload(camera_, nullptr));
-    const long asked = c.socket_buffer_bytes > 0 ? c.socket_buffer_bytes : 4 * payload;
+    const long asked = c.socket_buffer_bytes > 0 ? c.socket_buffer_bytes : 4L * payload;
     const long cap = kernel_rmem_max();
     if (cap > 0 && cap < asked)
       warnings.push_back(fmt::format(
@@ -322,8 +324,6 @@ void AravisCamera::start(const AravisSourceConfig& c, std::shared_ptr<FrameSigna
                  "socket-buffer", ARV_GV_STREAM_SOCKET_BUFFER_FIXED, "socket-buffer-size", static_cast<gint>(asked),
                  nullptr);
   }
-  const gint payload = static_cast<gint>(arv_camera_get_payload(camera_, &error));
-  if (error) fail("", "cannot read its payload size", error.error);
   for (int i = 0; i < c.buffers; ++i) arv_stream_push_buffer(stream_, arv_buffer_new(payload, nullptr));
   arv_camera_start_acquisition(camera_, &error);
   if (error) fail("", "cannot start acquisition", error.error);

@@ -117,10 +117,9 @@ TEST(Config, CameraSectionIsReadAndChecked) {
   EXPECT_EQ(c.aravis.metering_region.y, 512);
   EXPECT_EQ(c.aravis.packet_size, 9000);
   EXPECT_TRUE(c.aravis.packet_socket);
-  EXPECT_FALSE(parse_config("source:\n  type: aravis\n  aravis:\n    left: A\n    right: B\ncalibration: r.yaml\n",
-                            "test.yaml").aravis.packet_socket);
 
   const std::string cams = "source:\n  type: aravis\n  aravis:\n    left: A\n    right: B\n";
+  EXPECT_FALSE(parse_config(cams + "calibration: r.yaml\n", "test.yaml").aravis.packet_socket) << "off by default";
   expect_error(cams + "calibration: rig.yaml\n" + "x: 1\n", {"x", "unknown key"});
   expect_error("source:\n  type: aravis\ncalibration: rig.yaml\n", {"source.aravis.left", "left camera"});
   expect_error("source:\n  type: aravis\n  aravis:\n    left: A\n    right: A\ncalibration: r.yaml\n",
