@@ -1,7 +1,6 @@
 // Per-strip cost of the CPU disparity engines and of the DIC refinement, on textured strips of
 // 640x48 and 1280x64 px with a 64 px band (the sizes and band of a narrow-band rut strip).
 #include <benchmark/benchmark.h>
-
 #include <opencv2/imgproc.hpp>
 
 #include "pipeline/dic_refine.hpp"
@@ -56,7 +55,7 @@ void BM_Dic(benchmark::State& state) {
   auto engine = rutd::make_cpu_engine(EngineKind::Sgbm);
   cv::Mat initial, disparity;
   engine->compute(s.left, s.right, kBand, initial);
-  rutd::DicParams params;
+  rutd::DicConfig params;
   params.step = static_cast<int>(state.range(0));
   rutd::DicWorkspace ws;
   rutd::DicStats stats;

@@ -14,9 +14,9 @@
 
 #include "daemon/commands.hpp"
 #include "daemon/dimensions.hpp"
-#include "drivers/cycling_source.hpp"
-#include "drivers/synthetic_renderer.hpp"
 #include "pipeline/realtime_pipeline.hpp"
+#include "synthetic/cycling_source.hpp"
+#include "synthetic/synthetic_renderer.hpp"
 
 namespace rutd {
 namespace {
@@ -25,7 +25,7 @@ struct Options {
   double seconds = 5;  // per run
   double fps = 30;     // live regime's camera rate
   bool dic = true;
-  int frames = 4;      // distinct pairs rendered
+  int frames = 4;  // distinct pairs rendered
   std::string engine = "sgbm3way";
   std::string size = "640x480";
 };
@@ -50,7 +50,8 @@ void run(const char* mode, const char* regime, const SyntheticRenderer& renderer
          const Options& o) {
   const StereoMeasurer measurer(renderer.calibration(), mc);
   MeasurerStages stages(measurer);
-  const auto period = fps > 0 ? std::chrono::nanoseconds(static_cast<std::int64_t>(1e9 / fps)) : std::chrono::nanoseconds(0);
+  const auto period =
+      fps > 0 ? std::chrono::nanoseconds(static_cast<std::int64_t>(1e9 / fps)) : std::chrono::nanoseconds(0);
   CyclingSource source(renderer.calibration(), frames, period);
   CountingSink sink;
   PipelineConfig config;
@@ -63,20 +64,21 @@ void run(const char* mode, const char* regime, const SyntheticRenderer& renderer
   pipeline.stop();
   const double hz = static_cast<double>(s.published) / o.seconds;
   const StripRoi strip = measurer.config().strip;
-  std::printf("%-6s %-10s rows %3d..%3d  published %4llu (%3llu ok, depth %.2f mm)  %7.2f Hz  "
-              "e2e p50 %8.2f p99 %8.2f ms | rectify %6.2f match %8.2f extract %6.2f ms (p50) | dropped %llu\n",
-              mode, regime, strip.row0, strip.row0 + strip.rows, static_cast<unsigned long long>(s.published),
-              static_cast<unsigned long long>(sink.ok), sink.ok ? sink.depth_sum / static_cast<double>(sink.ok) : 0.0,
-              hz, ms(s.end_to_end.p50_ns), ms(s.end_to_end.p99_ns), ms(s.stage_latency[1].p50_ns),
-              ms(s.stage_latency[2].p50_ns), ms(s.stage_latency[3].p50_ns),
-              static_cast<unsigned long long>(s.dropped_total()));
+  std::printf(
+      "%-6s %-10s rows %3d..%3d  published %4llu (%3llu ok, depth %.2f mm)  %7.2f Hz  "
+      "e2e p50 %8.2f p99 %8.2f ms | rectify %6.2f match %8.2f extract %6.2f ms (p50) | dropped %llu\n",
+      mode, regime, strip.row0, strip.row0 + strip.rows, static_cast<unsigned long long>(s.published),
+      static_cast<unsigned long long>(sink.ok), sink.ok ? sink.depth_sum / static_cast<double>(sink.ok) : 0.0, hz,
+      ms(s.end_to_end.p50_ns), ms(s.end_to_end.p99_ns), ms(s.stage_latency[1].p50_ns), ms(s.stage_latency[2].p50_ns),
+      ms(s.stage_latency[3].p50_ns), static_cast<unsigned long long>(s.dropped_total()));
   std::fflush(stdout);
 }
 
 int run_bench(const Options& o) {
-  SynthParams p;
+  SynthConfig p;
   const auto size = parse_dimensions(o.size, 64, 8192);
-  if (!size) throw CLI::ValidationError("--size", "expected WIDTHxHEIGHT between 64x64 and 8192x8192, got '" + o.size + "'");
+  if (!size)
+    throw CLI::ValidationError("--size", "expected WIDTHxHEIGHT between 64x64 and 8192x8192, got '" + o.size + "'");
   p.rig.image_size = *size;
   const SyntheticRenderer renderer(p);
   std::vector<StereoFrame> frames(static_cast<std::size_t>(o.frames));
@@ -102,9 +104,15 @@ void add_bench_command(CLI::App& app, int& exit_code) {
   auto o = std::make_shared<Options>();
   CLI::App* cmd = app.add_subcommand("bench", "Print the pipeline's rate and latency on synthetic pairs");
   cmd->add_option("--seconds", o->seconds, "Length of each run")->check(CLI::Range(0.5, 600.0))->capture_default_str();
-  cmd->add_option("--fps", o->fps, "Camera rate of the live runs")->check(CLI::Range(1.0, 1000.0))->capture_default_str();
-  cmd->add_option("--frames", o->frames, "Distinct pairs rendered and cycled")->check(CLI::Range(1, 100))->capture_default_str();
-  cmd->add_option("--engine", o->engine, "Disparity engine")->check(CLI::IsMember({"bm", "sgbm", "sgbm3way", "hh4", "hh"}))->capture_default_str();
+  cmd->add_option("--fps", o->fps, "Camera rate of the live runs")
+      ->check(CLI::Range(1.0, 1000.0))
+      ->capture_default_str();
+  cmd->add_option("--frames", o->frames, "Distinct pairs rendered and cycled")
+      ->check(CLI::Range(1, 100))
+      ->capture_default_str();
+  cmd->add_option("--engine", o->engine, "Disparity engine")
+      ->check(CLI::IsMember({"bm", "sgbm", "sgbm3way", "hh4", "hh"}))
+      ->capture_default_str();
   cmd->add_option("--size", o->size, "Image size WIDTHxHEIGHT")->capture_default_str();
   auto no_dic = std::make_shared<bool>(false);
   cmd->add_flag("--no-dic", *no_dic, "No sub-pixel refinement");

@@ -1,14 +1,15 @@
 // rutd calibrate: stereo calibration from chessboard pairs, written in the calibration format that
 // replay, record and run read (DESIGN.md, Formats).
-#include <spdlog/spdlog.h>
-
 #include <cmath>
 #include <memory>
 #include <sstream>
 
+#include <spdlog/spdlog.h>
+
 #include "daemon/commands.hpp"
 #include "daemon/dimensions.hpp"
 #include "pipeline/stereo_calibrate.hpp"
+#include "recording/calibration_file.hpp"
 
 namespace rutd {
 namespace {
@@ -36,10 +37,10 @@ int run_calibrate(CalibrateOptions o) {
   for (const auto& name : report.rejected) spdlog::warn("{}: chessboard not found in both views; pair skipped", name);
   save_calibration(o.out, report.calibration);
   const cv::Vec3d& t = report.calibration.T;
-  spdlog::info("{} pairs used, {} skipped; RMS reprojection error {:.3f} px, rectified row error {:.3f} px RMS; "
-               "baseline {:.2f} mm; written to {}",
-               report.used.size(), report.rejected.size(), report.rms_px, report.epipolar_rms_px,
-               std::sqrt(t.dot(t)), o.out);
+  spdlog::info(
+      "{} pairs used, {} skipped; RMS reprojection error {:.3f} px, rectified row error {:.3f} px RMS; "
+      "baseline {:.2f} mm; written to {}",
+      report.used.size(), report.rejected.size(), report.rms_px, report.epipolar_rms_px, std::sqrt(t.dot(t)), o.out);
   return 0;
 }
 

@@ -2,17 +2,18 @@
 // vendor, model, serial, address, id) and, for the cameras asked for (--camera, or the left and right of
 // --config), the features rutd sets with their current values. Opening a camera for its features takes
 // control of it for a moment: run it while rutd itself is not streaming from that camera.
-#include <fmt/format.h>
-
 #include <iostream>
 #include <memory>
 #include <string>
 #include <vector>
 
+#include <fmt/format.h>
+
+#include "camera/camera_error.hpp"
+#include "camera/camera_list.hpp"
+#include "core/input_error.hpp"
 #include "daemon/commands.hpp"
 #include "daemon/config.hpp"
-#include "drivers/aravis_camera.hpp"
-#include "drivers/input_error.hpp"
 
 namespace rutd {
 namespace {
@@ -28,8 +29,8 @@ void print_listing(const std::vector<CameraListing>& found) {
                  "systemd/ gives access)\n";
     return;
   }
-  std::cout << fmt::format("{:<11} {:<16} {:<20} {:<16} {:<18} {}\n", "transport", "vendor", "model", "serial", "address",
-                           "id");
+  std::cout << fmt::format("{:<11} {:<16} {:<20} {:<16} {:<18} {}\n", "transport", "vendor", "model", "serial",
+                           "address", "id");
   for (const auto& c : found)
     std::cout << fmt::format("{:<11} {:<16} {:<20} {:<16} {:<18} {}\n", c.protocol, c.vendor, c.model, c.serial,
                              c.address, c.id);
@@ -43,10 +44,10 @@ bool print_features(const std::vector<CameraListing>& found, const std::string& 
     return false;
   }
   try {
-    AravisCamera camera(listing->id, "camera " + selector);
+    const auto features = read_camera_features(*listing, "camera " + selector);
     std::cout << fmt::format("\n{} ({} {} {}, {}):\n", selector, listing->vendor, listing->model, listing->serial,
                              listing->address);
-    for (const auto& [name, value] : camera.feature_values()) std::cout << fmt::format("  {:<28} {}\n", name, value);
+    for (const auto& [name, value] : features) std::cout << fmt::format("  {:<28} {}\n", name, value);
   } catch (const CameraError& e) {
     std::cerr << "rutd: error: " << e.what() << '\n';
     return false;
@@ -73,8 +74,9 @@ int run_cameras(const CamerasOptions& o) {
 
 void add_cameras_command(CLI::App& app, int& exit_code) {
   auto o = std::make_shared<CamerasOptions>();
-  CLI::App* cmd = app.add_subcommand("cameras", "List the GigE Vision and USB3 Vision cameras found, and the features "
-                                                "rutd uses of the ones named");
+  CLI::App* cmd = app.add_subcommand("cameras",
+                                     "List the GigE Vision and USB3 Vision cameras found, and the features "
+                                     "rutd uses of the ones named");
   cmd->add_option("--camera", o->cameras, "Also print the features of this camera (id, serial or address); repeatable");
   cmd->add_option("--config", o->config, "Also print the features of this configuration's left and right cameras");
   cmd->callback([o, &exit_code] { exit_code = run_cameras(*o); });

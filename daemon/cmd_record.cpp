@@ -6,18 +6,18 @@
 // SIGINT/SIGTERM stop cleanly (what is queued is written). Exit 0; 1 when the recording failed (disk
 // full, file too large; the error names the file); 2 for bad input at start, including a folder that
 // already holds a recording (never overwritten).
-#include <spdlog/spdlog.h>
-
 #include <atomic>
 #include <chrono>
 #include <csignal>
 #include <memory>
 
+#include <spdlog/spdlog.h>
+
 #include "daemon/commands.hpp"
-#include "daemon/stop_signal.hpp"
 #include "daemon/config.hpp"
 #include "daemon/run_sources.hpp"
-#include "drivers/frame_recorder.hpp"
+#include "daemon/stop_signal.hpp"
+#include "recording/frame_recorder.hpp"
 
 namespace rutd {
 namespace {
@@ -38,17 +38,19 @@ int run_record(const RecordOptions& o) {
       o.config.empty() ? parse_config(default_config_text(), "(embedded default)") : load_config(o.config);
   spdlog::set_level(spdlog::level::from_str(c.logging.level));
   std::unique_ptr<FrameSource> source = make_source(c);  // throws InputError for an unusable source
-  FrameRecorderOptions options;
+  FrameRecorderConfig options;
   options.writer.sync_to_disk = !o.no_sync;
   // Throws InputError when DIR cannot be written or already holds a recording.
   FrameRecorder recorder(o.dir, source->calibration(), options);
   install_stop_handlers();
-  spdlog::info("recording {} into {} ({})", describe_source(c), o.dir,
-               o.no_sync ? "no sync: safe against a killed process, not against a power cut" : "synced to disk per pair");
+  spdlog::info(
+      "recording {} into {} ({})", describe_source(c), o.dir,
+      o.no_sync ? "no sync: safe against a killed process, not against a power cut" : "synced to disk per pair");
 
   using Clock = std::chrono::steady_clock;
   const auto start = Clock::now();
-  const auto deadline = start + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(o.duration_s));
+  const auto deadline =
+      start + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(o.duration_s));
   auto last_error_log = start - std::chrono::seconds(1);
   std::uint64_t accepted = 0, source_errors = 0;
   StereoFrame frame;

@@ -2,22 +2,22 @@
 // pair (and the CAN frames that would have been sent, in candump format). Output is flushed per line so
 // a failure part-way keeps everything measured before it; a pair that cannot be read is reported and
 // skipped, and the command then exits 1.
-#include <spdlog/spdlog.h>
-
 #include <chrono>
 #include <fstream>
 #include <iostream>
 #include <map>
 #include <memory>
 
+#include <spdlog/spdlog.h>
+
+#include "can/can_encoder.hpp"
+#include "can/candump_log.hpp"
+#include "core/input_error.hpp"
 #include "daemon/commands.hpp"
 #include "daemon/measure_options.hpp"
 #include "daemon/run_summary.hpp"
-#include "drivers/can_encoder.hpp"
-#include "drivers/candump_log.hpp"
-#include "drivers/input_error.hpp"
-#include "drivers/measurement_csv.hpp"
-#include "drivers/recording.hpp"
+#include "recording/measurement_csv.hpp"
+#include "recording/recording.hpp"
 
 namespace rutd {
 namespace {
@@ -38,7 +38,7 @@ std::ostream& open_output(const std::string& path, std::ofstream& file, const ch
 }
 
 int run_replay(const ReplayOptions& o) {
-  RecordingReader reader(o.dir);  // throws InputError for a bad folder, calibration or header
+  ReplaySource reader(o.dir);  // throws InputError for a bad folder, calibration or header
   const MeasurerConfig config = resolve_measure_options(o.measure, reader.calibration().image_size);
   StereoMeasurer measurer(reader.calibration(), config);
 
@@ -46,7 +46,8 @@ int run_replay(const ReplayOptions& o) {
   MeasurementCsvWriter csv(open_output(o.out, csv_file, "--out"), /*flush_each_line=*/true);
   std::unique_ptr<CandumpLogWriter> candump;
   CanEncoder encoder;
-  if (!o.candump.empty()) candump = std::make_unique<CandumpLogWriter>(open_output(o.candump, can_file, "--candump"), o.can_interface);
+  if (!o.candump.empty())
+    candump = std::make_unique<CandumpLogWriter>(open_output(o.candump, can_file, "--candump"), o.can_interface);
 
   spdlog::info("replaying {} with engine {}{}", o.dir, to_string(config.engine), config.dic ? " + DIC" : "");
   RunSummary summary;

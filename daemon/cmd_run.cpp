@@ -3,30 +3,33 @@
 // frames plus a periodic status frame, and talks to systemd (READY, STATUS, WATCHDOG). With no options it
 // runs on any machine: synthetic cameras at their real frame rate, CAN frames on stdout (candump -L
 // format), logs on stderr. SIGINT/SIGTERM: stop, drain, exit 0 within a second. With sinks.record (or
-// --record DIR) the raw pairs are also recorded (drivers/frame_recorder.hpp); a recording that fails
+// --record DIR) the raw pairs are also recorded (recording/frame_recorder.hpp); a recording that fails
 // (disk full, file too large) stops with one error and raises RecordingError in the status frames
 // while measuring goes on.
-#include <spdlog/spdlog.h>
-
 #include <atomic>
 #include <csignal>
 #include <fstream>
+#include <functional>
 #include <iostream>
 #include <memory>
 #include <optional>
 #include <thread>
 
+#include <spdlog/spdlog.h>
+
+#include "can/can_sink.hpp"
+#include "core/input_error.hpp"
 #include "daemon/commands.hpp"
-#include "daemon/stop_signal.hpp"
 #include "daemon/config.hpp"
 #include "daemon/dimensions.hpp"
+#include "daemon/latest_measurement_sink.hpp"
 #include "daemon/run_sources.hpp"
 #include "daemon/service_notifier.hpp"
+#include "daemon/stop_signal.hpp"
 #include "daemon/supervisor.hpp"
-#include "daemon/sinks.hpp"
-#include "drivers/frame_recorder.hpp"
-#include "drivers/input_error.hpp"
 #include "pipeline/realtime_pipeline.hpp"
+#include "recording/frame_recorder.hpp"
+#include "recording/measurement_csv_sink.hpp"
 
 namespace rutd {
 namespace {
@@ -53,7 +56,8 @@ RutdConfig effective_config(const RunOptions& o) {
   }
   if (o.size) {
     const auto size = parse_dimensions(*o.size, 64, 8192);
-    if (!size) throw CLI::ValidationError("--size", "expected WIDTHxHEIGHT between 64x64 and 8192x8192, got '" + *o.size + "'");
+    if (!size)
+      throw CLI::ValidationError("--size", "expected WIDTHxHEIGHT between 64x64 and 8192x8192, got '" + *o.size + "'");
     c.synthetic.rig.image_size = *size;
   }
   return c;
@@ -68,16 +72,11 @@ std::ostream* open_stream(const std::string& path, std::ofstream& file, const ch
 }
 
 PipelineConfig pipeline_config(const RutdConfig& c) {
-  PipelineConfig p;
-  p.max_frame_age = std::chrono::milliseconds(static_cast<long>(c.pipeline.max_frame_age_ms));
-  p.status_period = std::chrono::milliseconds(static_cast<long>(c.pipeline.status_period_ms));
+  PipelineConfig p = c.pipeline;  // ages, status period, thread placement from the file
   p.log_period = std::chrono::milliseconds(static_cast<long>(c.logging.stats_period_s * 1000));
   p.on_log = [](const PipelineStats& s) { spdlog::info("{}", describe(s)); };
   // A recording's timestamps are its own time base, not this machine's clock.
   p.capture_clock_is_local = c.source != SourceKind::Replay;
-  for (std::size_t i = 0; i < c.pipeline.cpu_affinity.size() && i < kStageCount; ++i)
-    p.threads[i].cpu = c.pipeline.cpu_affinity[i];
-  for (auto& t : p.threads) t.fifo_priority = c.pipeline.realtime_priority;
   return p;
 }
 
@@ -94,21 +93,23 @@ int run_daemon(const RunOptions& o) {
   std::ofstream candump_file, csv_file;
   std::ostream* candump_stream = open_stream(c.sinks.candump, candump_file, "sinks.candump");
   std::ostream* csv_stream = open_stream(c.sinks.csv, csv_file, "sinks.csv");
-  std::unique_ptr<SocketCanSink> bus;
-  if (!c.sinks.socketcan.empty()) bus = std::make_unique<SocketCanSink>(c.sinks.socketcan);  // throws, naming it
+  std::unique_ptr<SocketCanBus> bus;
+  if (!c.sinks.socketcan.empty()) bus = std::make_unique<SocketCanBus>(c.sinks.socketcan);  // throws, naming it
   // Created after every other start-up check, so a start that fails leaves no empty recording behind
   // (which would block the next start: an existing recording is refused, InputError, never overwritten).
   std::unique_ptr<FrameRecorder> recorder;
   if (!c.sinks.record.empty()) {
     recorder = std::make_unique<FrameRecorder>(c.sinks.record, source->calibration());
-    source = std::make_unique<RecordingSource>(std::move(source), *recorder);
+    source = std::make_unique<RecordingTee>(std::move(source), *recorder);
   }
   std::unique_ptr<CandumpLogWriter> log;
   if (candump_stream != nullptr) log = std::make_unique<CandumpLogWriter>(*candump_stream, c.sinks.can_interface_name);
-  CanPublisher can(c.can, bus.get(), log.get(), candump_stream, recorder.get());
-  std::unique_ptr<CsvSink> csv;
-  if (csv_stream != nullptr) csv = std::make_unique<CsvSink>(*csv_stream);
-  LatestMeasurement latest;
+  std::function<bool()> recording_failed;
+  if (recorder) recording_failed = [r = recorder.get()] { return r->failed(); };
+  CanSink can(c.can, bus.get(), log.get(), candump_stream, std::move(recording_failed));
+  std::unique_ptr<MeasurementCsvSink> csv;
+  if (csv_stream != nullptr) csv = std::make_unique<MeasurementCsvSink>(*csv_stream);
+  LatestMeasurementSink latest;
   std::vector<MeasurementSink*> sinks{&can, &latest};
   if (csv) sinks.push_back(csv.get());
   SinkFanout fanout(sinks);
@@ -116,8 +117,9 @@ int run_daemon(const RunOptions& o) {
   install_stop_handlers();
   ServiceNotifier systemd;
   RealtimePipeline pipeline(*source, stages, fanout, pipeline_config(c));
-  spdlog::info("rutd {}: source {}, engine {}{}, CAN to {}{}{}", c.file, describe_source(c), to_string(c.measurement.engine),
-               c.measurement.dic ? " + DIC" : "", bus ? c.sinks.socketcan : std::string("no bus"),
+  spdlog::info("rutd {}: source {}, engine {}{}, CAN to {}{}{}", c.file, describe_source(c),
+               to_string(c.measurement.engine), c.measurement.dic ? " + DIC" : "",
+               bus ? c.sinks.socketcan : std::string("no bus"),
                log ? (", candump log to " + (c.sinks.candump == "-" ? std::string("stdout") : c.sinks.candump)) : "",
                recorder ? ", recording to " + recorder->directory() : "");
   pipeline.start();
@@ -128,7 +130,6 @@ int run_daemon(const RunOptions& o) {
   const auto watchdog = duration_cast<milliseconds>(systemd.watchdog_interval());
   const auto tick = watchdog.count() > 0 ? std::min(watchdog / 4, milliseconds(100)) : milliseconds(100);
   Supervisor supervisor(systemd, watchdog.count() > 0 ? watchdog : milliseconds(5000), seconds(30));
-  int exit_code = 0;
   while (!stop_requested()) {
     std::this_thread::sleep_for(tick);
     const PipelineStats s = pipeline.stats();
@@ -148,10 +149,12 @@ int run_daemon(const RunOptions& o) {
   }
   if (bus) {
     const SocketCanStats& b = bus->stats();
-    spdlog::info("CAN {}: {} frames sent, {} dropped (queue full), {} write errors, {} bus-off events", c.sinks.socketcan,
-                 b.sent, b.dropped, b.write_errors, b.bus_off_events);
+    spdlog::info("CAN {}: {} frames sent, {} dropped (queue full), {} write errors, {} bus-off events",
+                 c.sinks.socketcan, b.sent, b.dropped, b.write_errors, b.bus_off_events);
   }
-  return exit_code;
+  // Per-frame faults are reported on CAN and in the log, never through the exit status: a stop asked for
+  // is a clean exit. Start-up errors throw before this point (exit 2 in main).
+  return 0;
 }
 
 }  // namespace
@@ -163,10 +166,12 @@ void add_run_command(CLI::App& app, int& exit_code) {
   cmd->add_option("--frames", o->frames, "Stop after this many published measurements (0: until SIGINT/SIGTERM)")
       ->capture_default_str();
   cmd->add_option("--socketcan", o->socketcan, "Send on this CAN interface (overrides sinks.socketcan)");
-  cmd->add_option("--candump", o->candump, "candump -L log of the frames sent, '-' for stdout, '' for none (sinks.candump)");
+  cmd->add_option("--candump", o->candump,
+                  "candump -L log of the frames sent, '-' for stdout, '' for none (sinks.candump)");
   cmd->add_option("--csv", o->csv, "Measurement CSV file (sinks.csv)");
   cmd->add_option("--record", o->record, "Also record the raw pairs into this new folder (sinks.record)");
-  cmd->add_option("--replay", o->replay_dir, "Measure a recording folder at its own pace instead of the configured source");
+  cmd->add_option("--replay", o->replay_dir,
+                  "Measure a recording folder at its own pace instead of the configured source");
   cmd->add_option("--size", o->size, "Synthetic camera image size WIDTHxHEIGHT (source.synthetic.size)");
   cmd->add_option("--engine", o->engine, "Disparity engine (measurement.engine)")
       ->check(CLI::IsMember({"bm", "sgbm", "sgbm3way", "hh4", "hh"}));

@@ -1,15 +1,15 @@
 // rutd synth DIR: renders a synthetic stereo recording of a rut of known shape, in the recording format
 // replay reads (DESIGN.md, Formats), with the exact ground truth per frame in truth.csv beside it.
-#include <spdlog/spdlog.h>
-
 #include <chrono>
 #include <filesystem>
 #include <memory>
 
+#include <spdlog/spdlog.h>
+
 #include "daemon/commands.hpp"
 #include "daemon/synth_options.hpp"
-#include "drivers/recording.hpp"
-#include "drivers/truth_csv.hpp"
+#include "recording/recording.hpp"
+#include "synthetic/truth_csv.hpp"
 
 namespace rutd {
 namespace {
@@ -21,7 +21,7 @@ struct SynthCommandOptions {
 };
 
 int run_synth(const SynthCommandOptions& o) {
-  const SynthParams params = resolve_synth_options(o.scene);
+  const SynthConfig params = resolve_synth_options(o.scene);
   const SyntheticRenderer renderer(params);
   RecordingWriter writer(o.dir, renderer.calibration());  // throws InputError if the folder is unusable
   TruthCsvWriter truth((std::filesystem::path(o.dir) / "truth.csv").string());
@@ -47,7 +47,9 @@ void add_synth_command(CLI::App& app, int& exit_code) {
   auto options = std::make_shared<SynthCommandOptions>();
   CLI::App* cmd = app.add_subcommand("synth", "Render a synthetic stereo recording of a rut with ground truth");
   cmd->add_option("dir", options->dir, "Recording folder to create")->required();
-  cmd->add_option("--frames", options->frames, "Number of stereo pairs")->check(CLI::Range(1, 1000000))->capture_default_str();
+  cmd->add_option("--frames", options->frames, "Number of stereo pairs")
+      ->check(CLI::Range(1, 1000000))
+      ->capture_default_str();
   add_synth_options(*cmd, options->scene);
   cmd->callback([options, &exit_code] { exit_code = run_synth(*options); });
 }

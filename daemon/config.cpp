@@ -1,15 +1,16 @@
 #include "daemon/config.hpp"
 
-#include <yaml-cpp/yaml.h>
-
+#include <chrono>
 #include <fstream>
 #include <functional>
 #include <set>
 #include <sstream>
 
-#include "daemon/default_config.hpp"  // generated from config/rutd.yaml
+#include <yaml-cpp/yaml.h>
+
+#include "core/input_error.hpp"
 #include "daemon/dimensions.hpp"
-#include "drivers/input_error.hpp"
+#include "default_config.hpp"  // generated from config/rutd.yaml
 
 namespace rutd {
 namespace {
@@ -20,7 +21,8 @@ class Section {
  public:
   Section(YAML::Node node, std::string path, const std::string& file)
       : node_(std::move(node)), path_(std::move(path)), file_(file) {
-    if (node_ && !node_.IsNull() && !node_.IsMap()) fail_at(node_, path_.empty() ? "(top level)" : path_, "expected a mapping of keys");
+    if (node_ && !node_.IsNull() && !node_.IsMap())
+      fail_at(node_, path_.empty() ? "(top level)" : path_, "expected a mapping of keys");
   }
 
   // Reads `key` into `out` if present (absent keeps the default); `check` returns "" or what is wrong.
@@ -116,10 +118,14 @@ class Section {
   }
   template <typename T>
   static const char* type_name() {
-    if constexpr (std::is_same_v<T, bool>) return "true or false";
-    else if constexpr (std::is_integral_v<T>) return "an integer";
-    else if constexpr (std::is_floating_point_v<T>) return "a number";
-    else return "text";
+    if constexpr (std::is_same_v<T, bool>)
+      return "true or false";
+    else if constexpr (std::is_integral_v<T>)
+      return "an integer";
+    else if constexpr (std::is_floating_point_v<T>)
+      return "a number";
+    else
+      return "text";
   }
 
   YAML::Node node_;
@@ -154,12 +160,13 @@ std::string parse_byte(const std::string& s, std::uint8_t& out, unsigned max) {
   } catch (const std::exception&) {
     used = 0;
   }
-  if (used != s.size() || v > max) return "expected an integer 0.." + std::to_string(max) + " (decimal or 0x..), got '" + s + "'";
+  if (used != s.size() || v > max)
+    return "expected an integer 0.." + std::to_string(max) + " (decimal or 0x..), got '" + s + "'";
   out = static_cast<std::uint8_t>(v);
   return {};
 }
 
-void read_synthetic(Section s, SynthParams& p) {
+void read_synthetic(Section s, SynthConfig& p) {
   s.parse("size", [&](const std::string& t) { return parse_size(t, p.rig.image_size); })
       .get<double>("fps", p.fps, in_range(0.1, 1000.0))
       .get<double>("baseline_mm", p.rig.baseline_mm, in_range(5.0, 1000.0))
@@ -210,7 +217,7 @@ void read_measurement(Section s, MeasurerConfig& m) {
   s.finish();
 }
 
-void read_rut(Section s, RutParams& r) {
+void read_rut(Section s, RutConfig& r) {
   s.get<double>("min_width_mm", r.min_rut_width_mm, in_range(10.0, 5000.0))
       .get<double>("max_width_mm", r.max_rut_width_mm, in_range(10.0, 5000.0))
       .get<double>("fit_window_mm", r.fit_window_mm, in_range(2.0, 500.0))
@@ -249,20 +256,28 @@ void read_aravis(Section s, AravisSourceConfig& a) {
       .get<std::string>("right", a.right)
       .parse("pixel_format",
              [&](const std::string& t) {
-               if (t == "mono8") a.pixel_format = CameraPixelFormat::Mono8;
-               else if (t == "mono16") a.pixel_format = CameraPixelFormat::Mono16;
-               else if (t == "bayer") a.pixel_format = CameraPixelFormat::Bayer8;
-               else return "expected mono8, mono16 or bayer, got '" + t + "'";
+               if (t == "mono8")
+                 a.pixel_format = CameraPixelFormat::Mono8;
+               else if (t == "mono16")
+                 a.pixel_format = CameraPixelFormat::Mono16;
+               else if (t == "bayer")
+                 a.pixel_format = CameraPixelFormat::Bayer8;
+               else
+                 return "expected mono8, mono16 or bayer, got '" + t + "'";
                return std::string();
              })
       .get<int>("binning", a.binning, in_range(1, 8))
       .get<double>("fps", a.fps, in_range(0.1, 1000.0))
       .parse("sync",
              [&](const std::string& t) {
-               if (t == "free_run") a.sync = CameraSync::FreeRun;
-               else if (t == "software_trigger") a.sync = CameraSync::SoftwareTrigger;
-               else if (t == "hardware_trigger") a.sync = CameraSync::HardwareTrigger;
-               else return "expected free_run, software_trigger or hardware_trigger, got '" + t + "'";
+               if (t == "free_run")
+                 a.sync = CameraSync::FreeRun;
+               else if (t == "software_trigger")
+                 a.sync = CameraSync::SoftwareTrigger;
+               else if (t == "hardware_trigger")
+                 a.sync = CameraSync::HardwareTrigger;
+               else
+                 return "expected free_run, software_trigger or hardware_trigger, got '" + t + "'";
                return std::string();
              })
       .get<std::string>("trigger_line", a.trigger_line)
@@ -310,26 +325,33 @@ RutdConfig parse_config(const std::string& yaml_text, const std::string& file) {
 
   Section source = top.child("source");
   source.parse("type", [&](const std::string& t) {
-    if (t == "synthetic") c.source = SourceKind::Synthetic;
-    else if (t == "replay") c.source = SourceKind::Replay;
-    else if (t == "aravis") c.source = SourceKind::Aravis;
-    else return "expected synthetic, replay or aravis, got '" + t + "'";
+    if (t == "synthetic")
+      c.source = SourceKind::Synthetic;
+    else if (t == "replay")
+      c.source = SourceKind::Replay;
+    else if (t == "aravis")
+      c.source = SourceKind::Aravis;
+    else
+      return "expected synthetic, replay or aravis, got '" + t + "'";
     return std::string();
   });
   read_synthetic(source.child("synthetic"), c.synthetic);
   Section replay = source.child("replay");
   replay.get<std::string>("dir", c.replay.dir).get<bool>("paced", c.replay.paced).get<bool>("loop", c.replay.loop);
   replay.finish();
-  if (c.source == SourceKind::Replay && c.replay.dir.empty()) replay.fail("dir", "the replay source needs a recording folder");
+  if (c.source == SourceKind::Replay && c.replay.dir.empty())
+    replay.fail("dir", "the replay source needs a recording folder");
   read_aravis(source.child("aravis"), c.aravis);
   source.finish();
 
   top.get<std::string>("calibration", c.calibration);
-  if (c.source == SourceKind::Aravis && c.calibration.empty()) top.fail("calibration", "cameras need a calibration file");
+  if (c.source == SourceKind::Aravis && c.calibration.empty())
+    top.fail("calibration", "cameras need a calibration file");
   if (c.source == SourceKind::Aravis) {
     Section aravis = source.child("aravis");
     if (c.aravis.left.empty()) aravis.fail("left", "the aravis source needs the left camera (id, serial or address)");
-    if (c.aravis.right.empty()) aravis.fail("right", "the aravis source needs the right camera (id, serial or address)");
+    if (c.aravis.right.empty())
+      aravis.fail("right", "the aravis source needs the right camera (id, serial or address)");
     if (c.aravis.left == c.aravis.right) aravis.fail("right", "the same camera as left");
   }
   read_measurement(top.child("measurement"), c.measurement);
@@ -345,11 +367,19 @@ RutdConfig parse_config(const std::string& yaml_text, const std::string& file) {
   sinks.finish();
 
   Section pipeline = top.child("pipeline");
-  pipeline.get<double>("max_frame_age_ms", c.pipeline.max_frame_age_ms, in_range(1.0, 60000.0))
-      .get<double>("status_period_ms", c.pipeline.status_period_ms, in_range(10.0, 10000.0))
-      .get_int_list("cpu_affinity", c.pipeline.cpu_affinity)
-      .get<int>("realtime_priority", c.pipeline.realtime_priority, in_range(0, 99));
+  double max_frame_age_ms = static_cast<double>(c.pipeline.max_frame_age.count());
+  double status_period_ms = static_cast<double>(c.pipeline.status_period.count());
+  std::vector<int> cpu_affinity;
+  int realtime_priority = 0;
+  pipeline.get<double>("max_frame_age_ms", max_frame_age_ms, in_range(1.0, 60000.0))
+      .get<double>("status_period_ms", status_period_ms, in_range(10.0, 10000.0))
+      .get_int_list("cpu_affinity", cpu_affinity)
+      .get<int>("realtime_priority", realtime_priority, in_range(0, 99));
   pipeline.finish();
+  c.pipeline.max_frame_age = std::chrono::milliseconds(static_cast<long>(max_frame_age_ms));
+  c.pipeline.status_period = std::chrono::milliseconds(static_cast<long>(status_period_ms));
+  for (std::size_t i = 0; i < cpu_affinity.size() && i < kStageCount; ++i) c.pipeline.threads[i].cpu = cpu_affinity[i];
+  for (ThreadPlacement& t : c.pipeline.threads) t.fifo_priority = realtime_priority;
 
   Section logging = top.child("logging");
   logging.parse("level", [&](const std::string& t) {

@@ -1,15 +1,15 @@
 // rutd: real-time tyre rut depth from a stereo camera pair. main() only wires the commands; each
 // command lives in its own file and calls the libraries. Error policy at this level: bad input found at
 // start-up is printed once (naming the file and the field) and the process exits non-zero.
+#include <exception>
+#include <iostream>
+
 #include <CLI/CLI.hpp>
 #include <spdlog/sinks/stdout_color_sinks.h>
 #include <spdlog/spdlog.h>
 
-#include <exception>
-#include <iostream>
-
+#include "core/input_error.hpp"
 #include "daemon/commands.hpp"
-#include "drivers/input_error.hpp"
 
 int main(int argc, char** argv) {
   // Logs go to stderr: stdout carries data (CSV, candump) that other programs read.

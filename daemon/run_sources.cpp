@@ -1,17 +1,18 @@
 #include "daemon/run_sources.hpp"
 
-#include <fmt/format.h>
-#include <spdlog/spdlog.h>
-
 #include <algorithm>
 #include <chrono>
 #include <thread>
 
-#include "drivers/aravis_stereo_source.hpp"
-#include "drivers/calibration.hpp"
-#include "drivers/input_error.hpp"
-#include "drivers/recording.hpp"
-#include "drivers/synthetic_source.hpp"
+#include <fmt/format.h>
+#include <spdlog/spdlog.h>
+
+#include "camera/aravis_stereo_source.hpp"
+#include "camera/camera_error.hpp"
+#include "core/input_error.hpp"
+#include "recording/calibration_file.hpp"
+#include "recording/recording.hpp"
+#include "synthetic/synthetic_source.hpp"
 
 namespace rutd {
 namespace {
@@ -19,10 +20,10 @@ namespace {
 // A recording played back as if live: at its own timestamps (paced) and, if asked, over and over. Sequence
 // numbers and timestamps keep increasing across loops so that neither the pipeline nor a recording of
 // the replay sees them go backwards.
-class LiveRecordingSource final : public FrameSource {
+class PacedReplaySource final : public FrameSource {
  public:
-  LiveRecordingSource(std::string dir, bool paced, bool loop)
-      : dir_(std::move(dir)), paced_(paced), loop_(loop), reader_(std::make_unique<RecordingReader>(dir_)) {}
+  PacedReplaySource(std::string dir, bool paced, bool loop)
+      : dir_(std::move(dir)), paced_(paced), loop_(loop), reader_(std::make_unique<ReplaySource>(dir_)) {}
 
   SourceStatus next(StereoFrame& frame) override {
     SourceStatus s = reader_->next(frame);
@@ -31,7 +32,7 @@ class LiveRecordingSource final : public FrameSource {
       // The next loop continues the time line one frame step later (recordings need it increasing).
       t_offset_ns_ = last_t_ns_ + std::max<std::int64_t>(last_t_ns_ - previous_t_ns_, 1);
       first_of_loop_ = true;
-      reader_ = std::make_unique<RecordingReader>(dir_);
+      reader_ = std::make_unique<ReplaySource>(dir_);
       started_ = false;
       s = reader_->next(frame);
     }
@@ -65,7 +66,7 @@ class LiveRecordingSource final : public FrameSource {
 
   std::string dir_;
   bool paced_, loop_;
-  std::unique_ptr<RecordingReader> reader_;
+  std::unique_ptr<ReplaySource> reader_;
   bool started_ = false;
   std::int64_t first_t_ns_ = 0;
   std::chrono::steady_clock::time_point start_;
@@ -80,7 +81,8 @@ std::unique_ptr<FrameSource> make_camera_source(const RutdConfig& c) {
   StereoCalibration calibration = load_calibration(c.calibration);  // throws InputError naming the file
   try {
     auto source = std::make_unique<AravisStereoSource>(
-        c.aravis, std::move(calibration), std::chrono::milliseconds(static_cast<long>(c.logging.stats_period_s * 1000)));
+        c.aravis, std::move(calibration),
+        std::chrono::milliseconds(static_cast<long>(c.logging.stats_period_s * 1000)));
     for (const auto& w : source->warnings()) spdlog::warn("{}", w);
     return source;
   } catch (const CameraError& e) {
@@ -94,16 +96,12 @@ std::unique_ptr<FrameSource> make_camera_source(const RutdConfig& c) {
 
 std::unique_ptr<FrameSource> make_source(const RutdConfig& c) {
   switch (c.source) {
-    case SourceKind::Synthetic:
-      try {
-        return std::make_unique<SyntheticSource>(c.synthetic);
+    case SourceKind::Synthetic: try { return std::make_unique<SyntheticSource>(c.synthetic);
       } catch (const std::invalid_argument& e) {
         throw InputError(c.file, "source.synthetic", e.what());
       }
-    case SourceKind::Replay:
-      return std::make_unique<LiveRecordingSource>(c.replay.dir, c.replay.paced, c.replay.loop);
-    case SourceKind::Aravis:
-      return make_camera_source(c);
+    case SourceKind::Replay: return std::make_unique<PacedReplaySource>(c.replay.dir, c.replay.paced, c.replay.loop);
+    case SourceKind::Aravis: return make_camera_source(c);
   }
   throw InputError(c.file, "source.type", "unknown source");
 }
@@ -111,15 +109,16 @@ std::unique_ptr<FrameSource> make_source(const RutdConfig& c) {
 std::string describe_source(const RutdConfig& c) {
   switch (c.source) {
     case SourceKind::Synthetic:
-      return fmt::format("synthetic {}x{} at {} fps", c.synthetic.rig.image_size.width, c.synthetic.rig.image_size.height,
-                         c.synthetic.fps);
+      return fmt::format("synthetic {}x{} at {} fps", c.synthetic.rig.image_size.width,
+                         c.synthetic.rig.image_size.height, c.synthetic.fps);
     case SourceKind::Replay:
       return "recording " + c.replay.dir + (c.replay.paced ? " (paced)" : "") + (c.replay.loop ? " (loop)" : "");
     case SourceKind::Aravis:
       return fmt::format("cameras {} / {} at {} fps ({})", c.aravis.left, c.aravis.right, c.aravis.fps,
-                         c.aravis.sync == CameraSync::FreeRun           ? "free run"
-                         : c.aravis.sync == CameraSync::SoftwareTrigger ? "software trigger"
-                                                                        : "hardware trigger on " + c.aravis.trigger_line);
+                         c.aravis.sync == CameraSync::FreeRun ? "free run"
+                         : c.aravis.sync == CameraSync::SoftwareTrigger
+                             ? "software trigger"
+                             : "hardware trigger on " + c.aravis.trigger_line);
   }
   return "?";
 }

@@ -1,8 +1,8 @@
 #include "daemon/run_summary.hpp"
 
-#include <spdlog/spdlog.h>
-
 #include <string>
+
+#include <spdlog/spdlog.h>
 
 namespace rutd {
 
@@ -35,9 +35,10 @@ void RunSummary::log() const {
                wall_s > 0 ? pairs_ / wall_s : 0.0);
   if (pairs_ == 0) return;
   const double n = static_cast<double>(pairs_);
-  spdlog::info("mean ms per pair: rectify {:.2f}, band {:.2f}, disparity {:.2f}, dic {:.2f}, reproject {:.2f}, rut {:.2f}, total {:.2f}",
-               rectify_ms_ / n, band_ms_ / n, disparity_ms_ / n, dic_ms_ / n, reproject_ms_ / n, rut_ms_ / n,
-               measure_ms / n);
+  spdlog::info(
+      "mean ms per pair: rectify {:.2f}, band {:.2f}, disparity {:.2f}, dic {:.2f}, reproject {:.2f}, rut {:.2f}, "
+      "total {:.2f}",
+      rectify_ms_ / n, band_ms_ / n, disparity_ms_ / n, dic_ms_ / n, reproject_ms_ / n, rut_ms_ / n, measure_ms / n);
 }
 
 }  // namespace rutd

@@ -1,8 +1,8 @@
 #include "daemon/service_notifier.hpp"
 
-#include <systemd/sd-daemon.h>
-
 #include <cstdlib>
+
+#include <systemd/sd-daemon.h>
 
 namespace rutd {
 

@@ -9,7 +9,7 @@ Supervisor::Supervisor(ServiceNotifier& notifier, std::chrono::milliseconds stal
                        std::chrono::milliseconds ready_timeout)
     : notifier_(notifier), liveness_(stall_after), ready_timeout_ns_(ready_timeout.count() * 1000000) {}
 
-bool Supervisor::tick(const PipelineStats& s, const LatestMeasurement& latest, std::int64_t now_ns) {
+bool Supervisor::tick(const PipelineStats& s, const LatestMeasurementSink& latest, std::int64_t now_ns) {
   if (start_ns_ < 0) start_ns_ = next_status_ns_ = now_ns;
   if (!ready_ && (latest.good_measurements() > 0 || now_ns - start_ns_ >= ready_timeout_ns_)) {
     notifier_.ready();

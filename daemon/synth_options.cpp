@@ -1,16 +1,17 @@
 #include "daemon/synth_options.hpp"
 
-#include "daemon/dimensions.hpp"
-
 #include <charconv>
 #include <sstream>
+
+#include "daemon/dimensions.hpp"
 
 namespace rutd {
 namespace {
 
 cv::Size parse_size(const std::string& text) {
   const auto size = parse_dimensions(text, 64, 8192);
-  if (!size) throw CLI::ValidationError("--size", "expected WIDTHxHEIGHT between 64x64 and 8192x8192, got '" + text + "'");
+  if (!size)
+    throw CLI::ValidationError("--size", "expected WIDTHxHEIGHT between 64x64 and 8192x8192, got '" + text + "'");
   return *size;
 }
 
@@ -27,9 +28,9 @@ std::vector<std::pair<std::uint64_t, double>> parse_profile(const std::string& t
     const auto [p, ec] = std::from_chars(item.data(), item.data() + (colon == std::string::npos ? 0 : colon), frame);
     if (colon == std::string::npos || ec != std::errc() || p != item.data() + colon || !(depth_in >> depth) ||
         depth < 0 || (!knots.empty() && frame <= knots.back().first))
-      throw CLI::ValidationError("--depth-profile",
-                                 "expected FRAME:DEPTH_MM pairs with increasing frames, e.g. 0:30,100:60; bad item '" +
-                                     item + "'");
+      throw CLI::ValidationError(
+          "--depth-profile",
+          "expected FRAME:DEPTH_MM pairs with increasing frames, e.g. 0:30,100:60; bad item '" + item + "'");
     knots.emplace_back(frame, depth);
   }
   return knots;
@@ -38,34 +39,88 @@ std::vector<std::pair<std::uint64_t, double>> parse_profile(const std::string& t
 }  // namespace
 
 void add_synth_options(CLI::App& cmd, SynthOptions& o) {
-  SynthParams& p = o.params;
+  SynthConfig& p = o.params;
   const std::string rig = "Rig", rut = "Rut", scene = "Scene";
   cmd.add_option("--size", o.size, "Image size WIDTHxHEIGHT")->capture_default_str()->group(rig);
-  cmd.add_option("--baseline", p.rig.baseline_mm, "Stereo baseline, mm")->check(CLI::Range(5.0, 1000.0))->capture_default_str()->group(rig);
-  cmd.add_option("--height", p.rig.height_mm, "Camera height above undisturbed ground, mm")->check(CLI::Range(50.0, 5000.0))->capture_default_str()->group(rig);
-  cmd.add_option("--roll", p.rig.roll_deg, "Rig roll about the travel axis, degrees")->check(CLI::Range(-30.0, 30.0))->capture_default_str()->group(rig);
-  cmd.add_option("--pitch", p.rig.pitch_deg, "Rig pitch, degrees")->check(CLI::Range(-30.0, 30.0))->capture_default_str()->group(rig);
-  cmd.add_option("--hfov", p.rig.hfov_deg, "Horizontal field of view, degrees")->check(CLI::Range(10.0, 120.0))->capture_default_str()->group(rig);
-  cmd.add_option("--depth", p.rut.depth_mm, "Rut depth, mm")->check(CLI::Range(0.0, 500.0))->capture_default_str()->group(rut);
-  cmd.add_option("--depth-profile", o.depth_profile, "Depth over time: FRAME:DEPTH_MM,... (linear between knots)")->group(rut);
-  cmd.add_option("--width", p.rut.width_mm, "Rut top width (where it crosses ground level), mm")->check(CLI::Range(10.0, 2000.0))->capture_default_str()->group(rut);
-  cmd.add_option("--bottom-width", p.rut.bottom_width_mm, "Flat rut bottom width, mm")->check(CLI::Range(0.0, 2000.0))->capture_default_str()->group(rut);
-  cmd.add_option("--pile-left", p.rut.pile_left_mm, "Left pile height, mm (0: none)")->check(CLI::Range(0.0, 300.0))->capture_default_str()->group(rut);
-  cmd.add_option("--pile-right", p.rut.pile_right_mm, "Right pile height, mm (0: none)")->check(CLI::Range(0.0, 300.0))->capture_default_str()->group(rut);
-  cmd.add_option("--pile-width", p.rut.pile_width_mm, "Width of each pile, mm")->check(CLI::Range(1.0, 1000.0))->capture_default_str()->group(rut);
-  cmd.add_option("--offset", p.rut.lateral_offset_mm, "Lateral offset of the rut from the rig centre, mm")->capture_default_str()->group(rut);
-  cmd.add_option("--wander", p.rut.wander_amplitude_mm, "Lateral wander amplitude, mm")->check(CLI::Range(0.0, 1000.0))->capture_default_str()->group(rut);
-  cmd.add_option("--wander-wavelength", p.rut.wander_wavelength_mm, "Lateral wander wavelength along travel, mm")->check(CLI::Range(10.0, 1e6))->capture_default_str()->group(rut);
+  cmd.add_option("--baseline", p.rig.baseline_mm, "Stereo baseline, mm")
+      ->check(CLI::Range(5.0, 1000.0))
+      ->capture_default_str()
+      ->group(rig);
+  cmd.add_option("--height", p.rig.height_mm, "Camera height above undisturbed ground, mm")
+      ->check(CLI::Range(50.0, 5000.0))
+      ->capture_default_str()
+      ->group(rig);
+  cmd.add_option("--roll", p.rig.roll_deg, "Rig roll about the travel axis, degrees")
+      ->check(CLI::Range(-30.0, 30.0))
+      ->capture_default_str()
+      ->group(rig);
+  cmd.add_option("--pitch", p.rig.pitch_deg, "Rig pitch, degrees")
+      ->check(CLI::Range(-30.0, 30.0))
+      ->capture_default_str()
+      ->group(rig);
+  cmd.add_option("--hfov", p.rig.hfov_deg, "Horizontal field of view, degrees")
+      ->check(CLI::Range(10.0, 120.0))
+      ->capture_default_str()
+      ->group(rig);
+  cmd.add_option("--depth", p.rut.depth_mm, "Rut depth, mm")
+      ->check(CLI::Range(0.0, 500.0))
+      ->capture_default_str()
+      ->group(rut);
+  cmd.add_option("--depth-profile", o.depth_profile, "Depth over time: FRAME:DEPTH_MM,... (linear between knots)")
+      ->group(rut);
+  cmd.add_option("--width", p.rut.width_mm, "Rut top width (where it crosses ground level), mm")
+      ->check(CLI::Range(10.0, 2000.0))
+      ->capture_default_str()
+      ->group(rut);
+  cmd.add_option("--bottom-width", p.rut.bottom_width_mm, "Flat rut bottom width, mm")
+      ->check(CLI::Range(0.0, 2000.0))
+      ->capture_default_str()
+      ->group(rut);
+  cmd.add_option("--pile-left", p.rut.pile_left_mm, "Left pile height, mm (0: none)")
+      ->check(CLI::Range(0.0, 300.0))
+      ->capture_default_str()
+      ->group(rut);
+  cmd.add_option("--pile-right", p.rut.pile_right_mm, "Right pile height, mm (0: none)")
+      ->check(CLI::Range(0.0, 300.0))
+      ->capture_default_str()
+      ->group(rut);
+  cmd.add_option("--pile-width", p.rut.pile_width_mm, "Width of each pile, mm")
+      ->check(CLI::Range(1.0, 1000.0))
+      ->capture_default_str()
+      ->group(rut);
+  cmd.add_option("--offset", p.rut.lateral_offset_mm, "Lateral offset of the rut from the rig centre, mm")
+      ->capture_default_str()
+      ->group(rut);
+  cmd.add_option("--wander", p.rut.wander_amplitude_mm, "Lateral wander amplitude, mm")
+      ->check(CLI::Range(0.0, 1000.0))
+      ->capture_default_str()
+      ->group(rut);
+  cmd.add_option("--wander-wavelength", p.rut.wander_wavelength_mm, "Lateral wander wavelength along travel, mm")
+      ->check(CLI::Range(10.0, 1e6))
+      ->capture_default_str()
+      ->group(rut);
   cmd.add_flag("--tread", p.rut.tread, "Imprint tread marks in the rut bottom")->group(rut);
-  cmd.add_option("--texture", o.texture, "Terrain: sand, mud, snow, grass")->check(CLI::IsMember({"sand", "mud", "snow", "grass"}))->capture_default_str()->group(scene);
-  cmd.add_option("--fps", p.fps, "Frame rate, frames per second")->check(CLI::Range(0.1, 1000.0))->capture_default_str()->group(scene);
-  cmd.add_option("--speed", p.speed_mm_s, "Vehicle speed, mm/s")->check(CLI::Range(0.0, 1e5))->capture_default_str()->group(scene);
-  cmd.add_option("--noise", p.noise_sigma, "Sensor read noise, grey levels (8-bit)")->check(CLI::Range(0.0, 50.0))->capture_default_str()->group(scene);
+  cmd.add_option("--texture", o.texture, "Terrain: sand, mud, snow, grass")
+      ->check(CLI::IsMember({"sand", "mud", "snow", "grass"}))
+      ->capture_default_str()
+      ->group(scene);
+  cmd.add_option("--fps", p.fps, "Frame rate, frames per second")
+      ->check(CLI::Range(0.1, 1000.0))
+      ->capture_default_str()
+      ->group(scene);
+  cmd.add_option("--speed", p.speed_mm_s, "Vehicle speed, mm/s")
+      ->check(CLI::Range(0.0, 1e5))
+      ->capture_default_str()
+      ->group(scene);
+  cmd.add_option("--noise", p.noise_sigma, "Sensor read noise, grey levels (8-bit)")
+      ->check(CLI::Range(0.0, 50.0))
+      ->capture_default_str()
+      ->group(scene);
   cmd.add_option("--seed", p.seed, "Random seed (texture and noise)")->capture_default_str()->group(scene);
 }
 
-SynthParams resolve_synth_options(const SynthOptions& o) {
-  SynthParams p = o.params;
+SynthConfig resolve_synth_options(const SynthOptions& o) {
+  SynthConfig p = o.params;
   p.rig.image_size = parse_size(o.size);
   p.texture = *parse_texture(o.texture);  // IsMember above guarantees a known name
   if (!o.depth_profile.empty()) p.depth_profile = parse_profile(o.depth_profile);

@@ -79,8 +79,8 @@ bool invert_symmetric3(const double h[3][3], double inv[3][3]) {
   return true;
 }
 
-bool prepare_reference(const cv::Mat& left, const cv::Mat& left_dx, int x, int y, const Window& w,
-                       const DicParams& p, DicScratch& ws, Reference& ref) {
+bool prepare_reference(const cv::Mat& left, const cv::Mat& left_dx, int x, int y, const Window& w, const DicConfig& p,
+                       DicScratch& ws, Reference& ref) {
   double sum = 0.0;
   int i = 0;
   for (int yy = w.y0; yy <= w.y1; ++yy) {
@@ -180,7 +180,7 @@ struct PixelResult {
 // Inverse-compositional Gauss-Newton on the ZNSSD criterion (Pan et al., 2013) from disparity d0.
 // `start` is the warp to begin from (the previous pixel's, moved here, or the engine's shift).
 bool refine_pixel(const cv::Mat& left, const cv::Mat& right_coeff, const cv::Mat& left_dx, int x, int y, float d0,
-                  const Warp& start, const DicParams& p, DicScratch& ws, PixelResult& out) {
+                  const Warp& start, const DicConfig& p, DicScratch& ws, PixelResult& out) {
   const int h = p.half_window;
   const int hh = p.half_height > 0 ? p.half_height : h;
   const Window w{std::max(0, x - h), std::min(left.cols - 1, x + h), std::max(0, y - hh),
@@ -244,7 +244,7 @@ bool refine_pixel(const cv::Mat& left, const cv::Mat& right_coeff, const cv::Mat
 }
 
 // Refines rows [row_begin, row_end) of the grid with one thread's scratch.
-void refine_rows(const cv::Mat& left_strip, const DicWorkspace& ws, cv::Mat& disparity, const DicParams& params,
+void refine_rows(const cv::Mat& left_strip, const DicWorkspace& ws, cv::Mat& disparity, const DicConfig& params,
                  int row_begin, int row_end, DicScratch& scratch) {
   const int row_step = params.row_step > 0 ? params.row_step : params.step;
   for (int y = row_begin; y < row_end; ++y) {
@@ -287,7 +287,7 @@ void refine_rows(const cv::Mat& left_strip, const DicWorkspace& ws, cv::Mat& dis
 }  // namespace
 
 DicStats refine_disparity_dic(const cv::Mat& left_strip, const cv::Mat& right_strip, cv::Mat& disparity,
-                              const DicParams& params, DicWorkspace& ws) {
+                              const DicConfig& params, DicWorkspace& ws) {
   CV_Assert(left_strip.type() == CV_8UC1 && right_strip.type() == CV_8UC1 && disparity.type() == CV_32FC1);
   CV_Assert(left_strip.size() == right_strip.size() && disparity.size() == left_strip.size());
   CV_Assert(left_strip.cols >= 4 && params.half_window >= 1 && params.step >= 1 && params.row_step >= 0);
@@ -303,8 +303,8 @@ DicStats refine_disparity_dic(const cv::Mat& left_strip, const cv::Mat& right_st
   const auto window = static_cast<std::size_t>((2 * params.half_window + 1) * (2 * half_height + 1));
   for (int s = 0; s < stripes; ++s) {
     DicScratch& sc = ws.scratch[static_cast<std::size_t>(s)];
-    for (auto* v : {&sc.f, &sc.sd_x, &sc.sd_xi, &sc.sd_eta, &sc.g, &sc.pos, &sc.taps[0], &sc.taps[1], &sc.taps[2],
-                    &sc.taps[3]}) {
+    for (auto* v :
+         {&sc.f, &sc.sd_x, &sc.sd_xi, &sc.sd_eta, &sc.g, &sc.pos, &sc.taps[0], &sc.taps[1], &sc.taps[2], &sc.taps[3]}) {
       if (v->size() < window) v->resize(window);
     }
     if (sc.index.size() < window) sc.index.resize(window);

@@ -6,17 +6,17 @@
 
 #include <opencv2/imgproc.hpp>
 
-#include "pipeline/opencv_engines.hpp"
+#include "opencv_engines.hpp"
 
 namespace rutd {
 namespace {
 
-constexpr int kMaxCoarseSpan = 128;         // coarse-pass band, coarse px
-constexpr double kMinCoarseValid = 0.05;    // fraction of coarse pixels that must get a disparity
+constexpr int kMaxCoarseSpan = 128;       // coarse-pass band, coarse px
+constexpr double kMinCoarseValid = 0.05;  // fraction of coarse pixels that must get a disparity
 constexpr double kLowPercentile = 0.02;
 constexpr double kHighPercentile = 0.98;
 constexpr double kMinMarginPx = 4.0;
-constexpr double kSpreadMargin = 0.25;      // of the 2..98 percentile spread
+constexpr double kSpreadMargin = 0.25;  // of the 2..98 percentile spread
 // Mean |Sobel x| over 5x5 below which a coarse pixel counts as untextured: about 2 grey levels per px
 // (3x3 Sobel reads 8x the gradient). SGBM returns confident-looking values on flat images.
 constexpr double kMinTexture = 16.0;
@@ -53,7 +53,7 @@ std::string_view to_string(EngineKind kind) {
   return "unknown";
 }
 
-std::unique_ptr<DisparityEngine> make_cpu_engine(EngineKind kind, const EngineParams& params) {
+std::unique_ptr<DisparityEngine> make_cpu_engine(EngineKind kind, const EngineConfig& params) {
   if (kind == EngineKind::Bm) return std::make_unique<OpenCvBmEngine>(params);
   return std::make_unique<OpenCvSgbmEngine>(kind, params);
 }
@@ -83,7 +83,7 @@ DisparityBand BandEstimator::estimate(const cv::Mat& left_strip, const cv::Mat& 
   cv::resize(right_strip, right_, coarse_size, 0, 0, cv::INTER_AREA);
   const int block = left_strip.rows >= 5 ? 5 : 3;
   if (!engine_ || engine_block_ != block) {
-    EngineParams params;
+    EngineConfig params;
     params.block_size = block;
     engine_ = make_cpu_engine(EngineKind::Sgbm, params);
     engine_block_ = block;

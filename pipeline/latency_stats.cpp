@@ -66,8 +66,8 @@ void LatencyHistogram::copy_counts(Counts& out, std::uint64_t& total) const noex
   }
 }
 
-std::int64_t LatencyHistogram::percentile_of(const Counts& counts, std::uint64_t total, double q,
-                                             std::int64_t min_ns, std::int64_t max_ns) const noexcept {
+std::int64_t LatencyHistogram::percentile_of(const Counts& counts, std::uint64_t total, double q, std::int64_t min_ns,
+                                             std::int64_t max_ns) const noexcept {
   if (total == 0) return 0;
   const double clamped = std::clamp(std::isnan(q) ? 0.0 : q, 0.0, 1.0);
   const auto rank = std::max<std::uint64_t>(1, static_cast<std::uint64_t>(std::ceil(clamped * total)));

@@ -11,15 +11,13 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
-double ms_since(Clock::time_point t0) {
-  return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
-}
+double ms_since(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
 
 // Rows matched beyond the measured strip on each side, so the engines' blocks and the DIC window see
 // real image rows rather than a replicated border.
 int margin_for(const MeasurerConfig& config) {
-  const int block = config.engine_params.block_size > 0 ? config.engine_params.block_size : 11;
-  return std::max({block / 2, config.dic_params.half_window, config.dic_params.half_height}) + 2;
+  const int block = config.engine_config.block_size > 0 ? config.engine_config.block_size : 11;
+  return std::max({block / 2, config.dic_config.half_window, config.dic_config.half_height}) + 2;
 }
 
 StripRoi measured_strip(const StereoCalibration& calibration, const MeasurerConfig& config) {
@@ -56,7 +54,7 @@ StereoMeasurer::StereoMeasurer(const StereoCalibration& calibration, const Measu
 
 MatchContext StereoMeasurer::make_match_context() const {
   MatchContext context;
-  context.engine = make_cpu_engine(config_.engine, config_.engine_params);
+  context.engine = make_cpu_engine(config_.engine, config_.engine_config);
   return context;
 }
 
@@ -87,7 +85,7 @@ void StereoMeasurer::match(FrameWork& w, MatchContext& context) const {
   if (config_.dic) {
     t0 = Clock::now();
     // Only the measured rows are refined; the margin rows were matched as context for the windows.
-    DicParams dic = config_.dic_params;
+    DicConfig dic = config_.dic_config;
     dic.row_begin = config_.strip.row0 - geometry_.roi().row0;
     dic.row_end = dic.row_begin + config_.strip.rows;
     w.diag.dic = refine_disparity_dic(w.left_strip, w.right_strip, w.disparity, dic, context.dic);

@@ -1,4 +1,4 @@
-#include "pipeline/opencv_engines.hpp"
+#include "opencv_engines.hpp"
 
 #include <algorithm>
 #include <limits>
@@ -10,7 +10,7 @@ namespace {
 
 int or_default(int value, int fallback) { return value < 0 ? fallback : value; }
 
-// EngineParams::disp12_max_diff: -1 = default 1, -2 = off (OpenCV switches it off for negative values).
+// EngineConfig::disp12_max_diff: -1 = default 1, -2 = off (OpenCV switches it off for negative values).
 int disp12(int value) { return value == -1 ? 1 : (value < -1 ? -1 : value); }
 
 void check_block_size(int block_size, int min_size) {
@@ -52,7 +52,7 @@ void fixed_point_to_float(const cv::Mat& fixed_point, int min_disparity, cv::Mat
   }
 }
 
-OpenCvBmEngine::OpenCvBmEngine(const EngineParams& params)
+OpenCvBmEngine::OpenCvBmEngine(const EngineConfig& params)
     : block_size_(params.block_size == 0 ? 15 : params.block_size) {
   check_block_size(block_size_, 5);
   matcher_ = cv::StereoBM::create(16, block_size_);
@@ -76,7 +76,7 @@ void OpenCvBmEngine::compute(const cv::Mat& left, const cv::Mat& right, Disparit
   fixed_point_to_float(fixed_point_, band.min_disparity, disparity);
 }
 
-OpenCvSgbmEngine::OpenCvSgbmEngine(EngineKind kind, const EngineParams& params) : kind_(kind) {
+OpenCvSgbmEngine::OpenCvSgbmEngine(EngineKind kind, const EngineConfig& params) : kind_(kind) {
   const int mode = sgbm_mode(kind);
   const int block = params.block_size == 0 ? 5 : params.block_size;
   check_block_size(block, 1);
@@ -85,12 +85,10 @@ OpenCvSgbmEngine::OpenCvSgbmEngine(EngineKind kind, const EngineParams& params) 
   if (p2 <= p1) throw std::invalid_argument("disparity engine: p2 must be greater than p1");
   matcher_ = cv::StereoSGBM::create(0, 16, block, p1, p2, disp12(params.disp12_max_diff),
                                     or_default(params.pre_filter_cap, 63), or_default(params.uniqueness_ratio, 10),
-                                    or_default(params.speckle_window, 100), or_default(params.speckle_range, 2),
-                                    mode);
+                                    or_default(params.speckle_window, 100), or_default(params.speckle_range, 2), mode);
 }
 
-void OpenCvSgbmEngine::compute(const cv::Mat& left, const cv::Mat& right, DisparityBand band,
-                               cv::Mat& disparity) {
+void OpenCvSgbmEngine::compute(const cv::Mat& left, const cv::Mat& right, DisparityBand band, cv::Mat& disparity) {
   check_inputs(left, right, band);
   matcher_->setMinDisparity(band.min_disparity);
   matcher_->setNumDisparities(band.num_disparities);

@@ -9,7 +9,7 @@ namespace rutd {
 
 class OpenCvBmEngine final : public DisparityEngine {
  public:
-  explicit OpenCvBmEngine(const EngineParams& params);
+  explicit OpenCvBmEngine(const EngineConfig& params);
   EngineKind kind() const override { return EngineKind::Bm; }
   void compute(const cv::Mat& left, const cv::Mat& right, DisparityBand band, cv::Mat& disparity) override;
 
@@ -22,7 +22,7 @@ class OpenCvBmEngine final : public DisparityEngine {
 // kind: Sgbm, Sgbm3Way, Hh4 or Hh.
 class OpenCvSgbmEngine final : public DisparityEngine {
  public:
-  OpenCvSgbmEngine(EngineKind kind, const EngineParams& params);
+  OpenCvSgbmEngine(EngineKind kind, const EngineConfig& params);
   EngineKind kind() const override { return kind_; }
   void compute(const cv::Mat& left, const cv::Mat& right, DisparityBand band, cv::Mat& disparity) override;
 

@@ -17,7 +17,7 @@
 
 #include <boost/lockfree/spsc_queue.hpp>
 
-#include "pipeline/frame_pool.hpp"
+#include "frame_pool.hpp"
 
 namespace rutd {
 namespace {
@@ -30,8 +30,7 @@ constexpr milliseconds kWait{5};
 
 constexpr std::size_t idx(Stage s) noexcept { return static_cast<std::size_t>(s); }
 
-using SlotQueue =
-    boost::lockfree::spsc_queue<FrameSlot*, boost::lockfree::capacity<RealtimePipeline::kMaxPoolSlots>>;
+using SlotQueue = boost::lockfree::spsc_queue<FrameSlot*, boost::lockfree::capacity<RealtimePipeline::kMaxPoolSlots>>;
 
 // Wakes a thread that waits (bounded) for items from one or more queues. A permit is released only when
 // the waiter announced itself, so the semaphore's count stays at most one or two however long the
@@ -75,12 +74,6 @@ void add(std::atomic<std::uint64_t>& counter) noexcept { counter.fetch_add(1, kR
 
 }  // namespace
 
-std::int64_t monotonic_now_ns() noexcept {
-  timespec ts{};
-  clock_gettime(CLOCK_MONOTONIC, &ts);
-  return static_cast<std::int64_t>(ts.tv_sec) * 1'000'000'000 + ts.tv_nsec;
-}
-
 std::string_view to_string(Stage stage) noexcept {
   switch (stage) {
     case Stage::Acquire: return "acquire";
@@ -97,8 +90,8 @@ void validate(const PipelineConfig& c) {
     throw std::invalid_argument("pipeline config: " + field + ": " + why);
   };
   if (c.pool_slots < 6 || c.pool_slots > RealtimePipeline::kMaxPoolSlots)
-    fail("pool_slots", "must be 6.." + std::to_string(RealtimePipeline::kMaxPoolSlots) + ", got " +
-                           std::to_string(c.pool_slots));
+    fail("pool_slots",
+         "must be 6.." + std::to_string(RealtimePipeline::kMaxPoolSlots) + ", got " + std::to_string(c.pool_slots));
   if (c.max_frame_age.count() < 0) fail("max_frame_age", "must be >= 0 ms");
   if (c.status_period.count() <= 0) fail("status_period", "must be > 0 ms");
   if (c.no_frame_timeout.count() <= 0) fail("no_frame_timeout", "must be > 0 ms");
@@ -126,19 +119,16 @@ std::uint64_t PipelineStats::stale_total() const noexcept {
 std::string describe(const PipelineStats& s) {
   auto ms = [](std::int64_t ns) { return static_cast<double>(ns) * 1e-6; };
   char buf[1024];
-  int n = std::snprintf(buf, sizeof buf,
-                        "acquired %llu (%.1f Hz) published %llu (%.1f Hz, %llu ok) dropped %llu stale %llu "
-                        "rejected %llu errors %llu/%llu/%llu | e2e p50 %.2f p99 %.2f max %.2f ms",
-                        static_cast<unsigned long long>(s.acquired), s.acquire_hz,
-                        static_cast<unsigned long long>(s.published), s.publish_hz,
-                        static_cast<unsigned long long>(s.published_ok),
-                        static_cast<unsigned long long>(s.dropped_total()),
-                        static_cast<unsigned long long>(s.stale_total()),
-                        static_cast<unsigned long long>(s.rectify_rejected),
-                        static_cast<unsigned long long>(s.source_errors),
-                        static_cast<unsigned long long>(s.stage_errors),
-                        static_cast<unsigned long long>(s.sink_errors), ms(s.end_to_end.p50_ns),
-                        ms(s.end_to_end.p99_ns), ms(s.end_to_end.max_ns));
+  int n = std::snprintf(
+      buf, sizeof buf,
+      "acquired %llu (%.1f Hz) published %llu (%.1f Hz, %llu ok) dropped %llu stale %llu "
+      "rejected %llu errors %llu/%llu/%llu | e2e p50 %.2f p99 %.2f max %.2f ms",
+      static_cast<unsigned long long>(s.acquired), s.acquire_hz, static_cast<unsigned long long>(s.published),
+      s.publish_hz, static_cast<unsigned long long>(s.published_ok), static_cast<unsigned long long>(s.dropped_total()),
+      static_cast<unsigned long long>(s.stale_total()), static_cast<unsigned long long>(s.rectify_rejected),
+      static_cast<unsigned long long>(s.source_errors), static_cast<unsigned long long>(s.stage_errors),
+      static_cast<unsigned long long>(s.sink_errors), ms(s.end_to_end.p50_ns), ms(s.end_to_end.p99_ns),
+      ms(s.end_to_end.max_ns));
   std::string out(buf, static_cast<std::size_t>(std::clamp(n, 0, static_cast<int>(sizeof buf) - 1)));
   for (std::size_t i = 0; i < kStageCount; ++i) {
     const LatencySummary& l = s.stage_latency[i];
@@ -171,9 +161,7 @@ struct RealtimePipeline::Impl {
   // frames (content-sized buffers such as the cross-section) after the first pool_slots frames.
   std::vector<FrameSlot*> free_ring;  // pool_slots entries, sized at start
   std::size_t free_head = 0, free_count = 0;
-  void push_free(FrameSlot* slot) noexcept {
-    free_ring[(free_head + free_count++) % free_ring.size()] = slot;
-  }
+  void push_free(FrameSlot* slot) noexcept { free_ring[(free_head + free_count++) % free_ring.size()] = slot; }
   FrameSlot* pop_free() noexcept {
     if (free_count == 0) return nullptr;
     FrameSlot* slot = free_ring[free_head];
@@ -528,7 +516,8 @@ SensorHealth RealtimePipeline::Impl::health() const noexcept {
   h.frame_rate_hz = acquire_hz.load(kRelaxed);
   std::uint64_t lost = 0;
   for (std::size_t i = 0; i < kStageCount; ++i) lost += dropped[i].load(kRelaxed) + stale[i].load(kRelaxed);
-  h.dropped_frames = static_cast<std::uint32_t>(std::min<std::uint64_t>(lost, std::numeric_limits<std::uint32_t>::max()));
+  h.dropped_frames =
+      static_cast<std::uint32_t>(std::min<std::uint64_t>(lost, std::numeric_limits<std::uint32_t>::max()));
   h.last_status = static_cast<RutStatus>(last_status.load(kRelaxed));
   return h;
 }

@@ -2,11 +2,12 @@
 
 #include <filesystem>
 #include <stdexcept>
+
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "drivers/input_error.hpp"
+#include "core/input_error.hpp"
 
 namespace rutd {
 namespace {
@@ -25,8 +26,7 @@ cv::Mat read_grey(const std::string& path, cv::Size& size) {
 }
 
 bool find_corners(const cv::Mat& img, cv::Size pattern, Corners& corners) {
-  if (!cv::findChessboardCorners(img, pattern, corners,
-                                 cv::CALIB_CB_ADAPTIVE_THRESH | cv::CALIB_CB_NORMALIZE_IMAGE))
+  if (!cv::findChessboardCorners(img, pattern, corners, cv::CALIB_CB_ADAPTIVE_THRESH | cv::CALIB_CB_NORMALIZE_IMAGE))
     return false;
   cv::cornerSubPix(img, corners, {11, 11}, {-1, -1},
                    cv::TermCriteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 30, 0.01));
@@ -118,7 +118,8 @@ void read_image_list(const std::string& path, std::vector<std::string>& left, st
     if (!node.isString()) throw InputError(path, "imagelist", "every entry must be an image file name");
     names.push_back((folder / static_cast<std::string>(node)).string());
   }
-  if (names.size() % 2 != 0) throw InputError(path, "imagelist", "expected alternating left and right images, got an odd count");
+  if (names.size() % 2 != 0)
+    throw InputError(path, "imagelist", "expected alternating left and right images, got an odd count");
   for (std::size_t i = 0; i < names.size(); i += 2) {
     left.push_back(names[i]);
     right.push_back(names[i + 1]);

@@ -20,15 +20,15 @@ struct Rectification {
 
 Rectification stereo_rectify(const StereoCalibration& c, double alpha) {
   Rectification r;
-  cv::stereoRectify(cv::Mat(c.M1), c.D1, cv::Mat(c.M2), c.D2, c.image_size, cv::Mat(c.R), cv::Mat(c.T),
-                    r.R1, r.R2, r.P1, r.P2, r.Q, cv::CALIB_ZERO_DISPARITY, alpha, c.image_size);
+  cv::stereoRectify(cv::Mat(c.M1), c.D1, cv::Mat(c.M2), c.D2, c.image_size, cv::Mat(c.R), cv::Mat(c.T), r.R1, r.R2,
+                    r.P1, r.P2, r.Q, cv::CALIB_ZERO_DISPARITY, alpha, c.image_size);
   return r;
 }
 
 // Maps for the strip rows only: the projection's principal point moves up by row0, so row 0 of the
 // map is rectified row row0.
-void strip_maps(const cv::Matx33d& M, const cv::Mat& D, const cv::Mat& R, const cv::Mat& P, StripRoi roi,
-                int width, int map1_type, cv::Mat& map1, cv::Mat& map2) {
+void strip_maps(const cv::Matx33d& M, const cv::Mat& D, const cv::Mat& R, const cv::Mat& P, StripRoi roi, int width,
+                int map1_type, cv::Mat& map1, cv::Mat& map2) {
   cv::Mat strip_p = P.colRange(0, 3).clone();
   strip_p.at<double>(1, 2) -= roi.row0;
   cv::initUndistortRectifyMap(cv::Mat(M), D, R, strip_p, cv::Size(width, roi.rows), map1_type, map1, map2);
@@ -41,8 +41,7 @@ bool maps_inside(const cv::Mat& map_x, const cv::Mat& map_y, cv::Size raw) {
   cv::minMaxLoc(map_x, &min_x, &max_x);
   cv::minMaxLoc(map_y, &min_y, &max_y);
   constexpr double kSlack = 0.5;
-  return min_x >= -kSlack && max_x <= raw.width - 1 + kSlack && min_y >= -kSlack &&
-         max_y <= raw.height - 1 + kSlack;
+  return min_x >= -kSlack && max_x <= raw.width - 1 + kSlack && min_y >= -kSlack && max_y <= raw.height - 1 + kSlack;
 }
 
 bool strip_inside(const StereoCalibration& c, const Rectification& r, StripRoi roi) {
@@ -127,9 +126,8 @@ StereoGeometry::StereoGeometry(const StereoCalibration& calibration, StripRoi ro
     : raw_size_(calibration.image_size), rectified_size_(calibration.image_size) {
   if (roi.rows == 0 && roi.row0 == 0) roi.rows = rectified_size_.height;
   if (roi.row0 < 0 || roi.rows <= 0 || roi.row0 + roi.rows > rectified_size_.height) {
-    throw std::invalid_argument("strip rows " + std::to_string(roi.row0) + ".." +
-                                std::to_string(roi.row0 + roi.rows) + " outside the rectified image of " +
-                                std::to_string(rectified_size_.height) + " rows");
+    throw std::invalid_argument("strip rows " + std::to_string(roi.row0) + ".." + std::to_string(roi.row0 + roi.rows) +
+                                " outside the rectified image of " + std::to_string(rectified_size_.height) + " rows");
   }
   roi_ = roi;
   alpha_ = choose_alpha(calibration, roi_);
@@ -142,8 +140,9 @@ StereoGeometry::StereoGeometry(const StereoCalibration& calibration, StripRoi ro
   focal_px_ = P1_(0, 0);
   baseline_mm_ = -P2_(0, 3) / P2_(0, 0);
   if (std::abs(P2_(1, 3)) > 1e-9 * std::abs(P2_(0, 3)) || !(baseline_mm_ > 0.0)) {
-    throw std::invalid_argument("the calibration is not a left/right pair: after rectification the right "
-                                "camera must lie at +X of the left one (T.x < 0)");
+    throw std::invalid_argument(
+        "the calibration is not a left/right pair: after rectification the right "
+        "camera must lie at +X of the left one (T.x < 0)");
   }
   cv::Mat x, y;
   strip_maps(calibration.M1, calibration.D1, r.R1, r.P1, roi_, rectified_size_.width, CV_32FC1, x, y);

@@ -32,8 +32,8 @@ double trimmed_mean(float* first, float* last, double trim_fraction) {
   long trim = static_cast<long>(std::floor(double(n) * trim_fraction));
   trim = std::clamp(trim, trim_fraction > 0.0 ? 1L : 0L, (n - 1) / 2);
   if (trim > 0) {
-    std::nth_element(first, first + trim, last);             // [0, trim) are the smallest
-    std::nth_element(first + trim, last - trim, last);       // [n - trim, n) are the largest
+    std::nth_element(first, first + trim, last);        // [0, trim) are the smallest
+    std::nth_element(first + trim, last - trim, last);  // [n - trim, n) are the largest
   }
   double sum = 0.0;
   for (const float* p = first + trim; p < last - trim; ++p) sum += *p;
@@ -42,7 +42,7 @@ double trimmed_mean(float* first, float* last, double trim_fraction) {
 
 }  // namespace
 
-void reduce_to_cross_section(const cv::Mat& xyz, const RutParams& params, CrossSection& out) {
+void reduce_to_cross_section(const cv::Mat& xyz, const RutConfig& params, CrossSection& out) {
   const double dx = params.bin_mm > 0.0 ? params.bin_mm : 1.0;
   out.dx_mm = dx;
   out.x0_mm = 0.0;
@@ -91,8 +91,7 @@ void reduce_to_cross_section(const cv::Mat& xyz, const RutParams& params, CrossS
   for (int b = 0; b < nbins; ++b) {
     const int end = out.scratch_offset[b];
     if (end > start) {
-      out.z_mm[b] = trimmed_mean(out.scratch_z.data() + start, out.scratch_z.data() + end,
-                                 params.trim_fraction);
+      out.z_mm[b] = trimmed_mean(out.scratch_z.data() + start, out.scratch_z.data() + end, params.trim_fraction);
     }
     start = end;
   }

@@ -21,7 +21,7 @@
 #include <cmath>
 #include <limits>
 
-#include "rut/local_fit.hpp"
+#include "local_fit.hpp"
 
 namespace rutd {
 namespace {
@@ -56,8 +56,7 @@ struct Opening {
 };
 
 // h = signed distance above the line (towards the camera), mm.
-void heights(const std::vector<double>& z, const Grid& g, const detail::Line& line,
-             std::vector<double>& h) {
+void heights(const std::vector<double>& z, const Grid& g, const detail::Line& line, std::vector<double>& h) {
   const double inv_norm = 1.0 / std::sqrt(1.0 + line.m * line.m);
   h.resize(z.size());
   for (int i = 0; i < g.n; ++i) h[i] = (line.m * g.x(i) + line.c - z[i]) * inv_norm;
@@ -81,8 +80,7 @@ int argmax_valid(const std::vector<double>& h, int lo, int hi) {
 
 // Walks from the bottom bin k in direction dir (-1/+1) to where h rises to the line (h >= 0),
 // interpolating the crossing linearly between the bins around it; NaN bins are stepped over.
-void find_crossing(const std::vector<double>& h, const Grid& g, int k, int dir, double& x, int& bin,
-                   bool& at_edge) {
+void find_crossing(const std::vector<double>& h, const Grid& g, int k, int dir, double& x, int& bin, bool& at_edge) {
   int last = k;
   for (int j = k + dir; j >= 0 && j < g.n; j += dir) {
     if (std::isnan(h[j])) continue;
@@ -131,8 +129,8 @@ int next_valid(const std::vector<double>& h, int j, int dir) {
 // the data edge, claiming all the ground of a narrow view; the ground is where the pile has come down
 // to the line or has stopped descending. Without a pile both walks stop at once. Returns the foot bin,
 // or -1 if the walk ran off the data.
-int pile_foot(const std::vector<double>& h, const std::vector<double>& slope, double m,
-              double grad_max, int start, int dir, int look, double tau) {
+int pile_foot(const std::vector<double>& h, const std::vector<double>& slope, double m, double grad_max, int start,
+              int dir, int look, double tau) {
   int j = std::isnan(h[start]) ? next_valid(h, start, dir) : start;
   while (j >= 0 && ahead_exceeds(h, j, dir, look, tau, +1)) j = next_valid(h, j, dir);
   const double top = j >= 0 ? h[j] : 0.0;
@@ -145,22 +143,21 @@ int pile_foot(const std::vector<double>& h, const std::vector<double>& slope, do
 }
 
 struct Zone {
-  int lo = 0, hi = 0;                  // disturbed bins (inclusive); ground lies outside
+  int lo = 0, hi = 0;  // disturbed bins (inclusive); ground lies outside
   bool ground_left = false, ground_right = false;
 };
 
-// Bins a gradient must stay below to count as ground (dimensionless); see RutParams.
-double ground_gradient(const RutParams& params, const Profile& p) {
+// Bins a gradient must stay below to count as ground (dimensionless); see RutConfig.
+double ground_gradient(const RutConfig& params, const Profile& p) {
   return std::max(params.ground_gradient_max, 4.0 * p.slope_noise);
 }
 
-Zone disturbed_zone(const RutWorkspace& ws, const detail::Line& line, const Opening& o,
-                    const Profile& p, double grad_max) {
+Zone disturbed_zone(const RutWorkspace& ws, const detail::Line& line, const Opening& o, const Profile& p,
+                    double grad_max) {
   const double tau = std::max(kMinStep, 5.0 * p.sigma_fit);
   const int look = 2 * p.half;
   Zone z;
-  const int left_foot =
-      o.left_edge ? -1 : pile_foot(ws.h_fit, ws.slope, line.m, grad_max, o.left_bin, -1, look, tau);
+  const int left_foot = o.left_edge ? -1 : pile_foot(ws.h_fit, ws.slope, line.m, grad_max, o.left_bin, -1, look, tau);
   const int right_foot =
       o.right_edge ? -1 : pile_foot(ws.h_fit, ws.slope, line.m, grad_max, o.right_bin, +1, look, tau);
   // No margin beyond the feet: the walk stops only where the local fit (which reaches half a window
@@ -176,8 +173,8 @@ Zone disturbed_zone(const RutWorkspace& ws, const detail::Line& line, const Open
 
 // Robust ground line through low-gradient bins outside the zone. Updates line; false if there is
 // too little ground (the caller reports NoGround).
-bool fit_ground(const CrossSection& s, const Profile& p, const Zone& zone, const RutParams& params,
-                RutWorkspace& ws, detail::Line& line, Zone& used) {
+bool fit_ground(const CrossSection& s, const Profile& p, const Zone& zone, const RutConfig& params, RutWorkspace& ws,
+                detail::Line& line, Zone& used) {
   const double grad_max = ground_gradient(params, p);
   ws.a.clear();
   ws.b.clear();
@@ -229,8 +226,8 @@ double nearest_slope(const std::vector<double>& slope, int i, int dir, int reach
 // over the raw bins by trapezoids, h = 0 at both crossings. A gap is bridged by the cubic Hermite
 // through the values and fitted slopes at its ends (trapezoid plus an end-slope correction), so a
 // hole on a curved wall follows the curve rather than its chord; linearly if no slope is known.
-double area_below(const std::vector<double>& h_raw, const std::vector<double>& slope, double m,
-                  const Grid& g, const Opening& o, double norm, int reach) {
+double area_below(const std::vector<double>& h_raw, const std::vector<double>& slope, double m, const Grid& g,
+                  const Opening& o, double norm, int reach) {
   double area = 0.0;
   double px = o.left_x, pv = o.left_edge ? kNaN : 0.0;
   int pi = -1;
@@ -257,8 +254,7 @@ double area_below(const std::vector<double>& h_raw, const std::vector<double>& s
 }
 
 // Largest height on one side of the opening (bins [lo, hi]), 0 when below the detection floor.
-double pile_height(const RutWorkspace& ws, const Profile& p, const RutParams& params, int lo,
-                   int hi) {
+double pile_height(const RutWorkspace& ws, const Profile& p, const RutConfig& params, int lo, int hi) {
   if (lo > hi) return 0.0;
   const int k = argmax_valid(ws.h_fit, lo, hi);
   if (k < 0) return 0.0;
@@ -291,7 +287,7 @@ double smoothed_ground_sigma(const std::vector<double>& h_fit, const Zone& zone,
 
 }  // namespace
 
-RutMeasurement extract_rut(const CrossSection& section, const RutParams& params, RutWorkspace& ws) {
+RutMeasurement extract_rut(const CrossSection& section, const RutConfig& params, RutWorkspace& ws) {
   RutMeasurement out;
   const int n = static_cast<int>(section.z_mm.size());
   Profile p;

@@ -1,4 +1,4 @@
-#include "rut/local_fit.hpp"
+#include "local_fit.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -64,8 +64,8 @@ struct QuadSums {
 
 }  // namespace
 
-void sliding_quadratic(const std::vector<double>& z, double dx, int half, int min_count,
-                       std::vector<double>& value, std::vector<double>& slope) {
+void sliding_quadratic(const std::vector<double>& z, double dx, int half, int min_count, std::vector<double>& value,
+                       std::vector<double>& slope) {
   const int n = static_cast<int>(z.size());
   value.assign(n, kNaN);
   slope.assign(n, kNaN);
@@ -135,8 +135,7 @@ bool weighted_line(const double* x, const double* z, const double* w, int n, Lin
 
 }  // namespace
 
-bool fit_line_robust(const double* x, const double* z, int n, std::vector<double>& scratch,
-                     Line& line) {
+bool fit_line_robust(const double* x, const double* z, int n, std::vector<double>& scratch, Line& line) {
   if (n < 2) return false;
   scratch.assign(2 * static_cast<std::size_t>(n), 1.0);
   double* w = scratch.data();
@@ -166,8 +165,8 @@ bool fit_line_robust(const double* x, const double* z, int n, std::vector<double
   return true;
 }
 
-double refine_max(const std::vector<double>& h_raw, const std::vector<double>& h_fit, int k,
-                  double delta, int min_half, int lo, int hi, double min_t) {
+double refine_max(const std::vector<double>& h_raw, const std::vector<double>& h_fit, int k, double delta, int min_half,
+                  int lo, int hi, double min_t) {
   const double top = h_fit[k];
   // Bins without a fit (near gaps) are judged by their raw sample, with the raw noise allowed for.
   auto inside = [&](int j) {

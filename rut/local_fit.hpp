@@ -10,8 +10,8 @@ namespace rutd::detail {
 // paper's sliding fit; Savitzky-Golay that tolerates gaps). value[i] and slope[i] (dZ/dX, with dx the
 // bin width) are the parabola's value and slope at bin i, NaN where fewer than min_count samples
 // were available.
-void sliding_quadratic(const std::vector<double>& z, double dx, int half, int min_count,
-                       std::vector<double>& value, std::vector<double>& slope);
+void sliding_quadratic(const std::vector<double>& z, double dx, int half, int min_count, std::vector<double>& value,
+                       std::vector<double>& slope);
 
 // Variance of a full-window sliding_quadratic value relative to the per-sample variance (the centre
 // leverage of a parabola fitted to 2*half+1 equally spaced points).
@@ -34,8 +34,7 @@ struct Line {
 // Fits Z = m X + c to the n points (x[i], z[i]) with Tukey's bisquare (IRLS from a least-squares
 // start), so points that are not ground (stones, pile tails) do not pull the line. `scratch` is
 // overwritten. Returns false for fewer than 2 distinct X.
-bool fit_line_robust(const double* x, const double* z, int n, std::vector<double>& scratch,
-                     Line& line);
+bool fit_line_robust(const double* x, const double* z, int n, std::vector<double>& scratch, Line& line);
 
 // Fit-based estimate of the largest value of a profile around bin k, unbiased by noise unlike the
 // largest sample. The region is the run of bins around k whose smoothed value lies within `delta` of
@@ -44,7 +43,7 @@ bool fit_line_robust(const double* x, const double* z, int n, std::vector<double
 // A concave parabola whose curvature exceeds min_t times its standard error gives its vertex (clamped
 // to the region); otherwise the top is flat within the noise and the mean of the region is the
 // estimate. min_t = 0 trusts any concave fit (tops known to be rounded).
-double refine_max(const std::vector<double>& h_raw, const std::vector<double>& h_fit, int k,
-                  double delta, int min_half, int lo, int hi, double min_t);
+double refine_max(const std::vector<double>& h_raw, const std::vector<double>& h_fit, int k, double delta, int min_half,
+                  int lo, int hi, double min_t);
 
 }  // namespace rutd::detail

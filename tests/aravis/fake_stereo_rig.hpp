@@ -6,13 +6,12 @@
 // at the same rate behave like a PTP-synchronised pair. The fill callback picks the rendered view by that
 // timestamp: view (t / period) mod K, the same instant for both cameras. A pair put together from two
 // different instants shows the rut moved along travel by speed * period, which the measurement notices.
+#include <arpa/inet.h>
 #include <arv.h>
-#include <gtest/gtest.h>
+#include <ifaddrs.h>
 #include <netinet/in.h>
 #include <sys/socket.h>
 #include <unistd.h>
-#include <arpa/inet.h>
-#include <ifaddrs.h>
 
 #include <array>
 #include <atomic>
@@ -21,7 +20,9 @@
 #include <string>
 #include <vector>
 
-#include "drivers/synthetic_renderer.hpp"
+#include <gtest/gtest.h>
+
+#include "synthetic/synthetic_renderer.hpp"
 
 namespace rutd::test {
 
@@ -32,7 +33,8 @@ inline constexpr std::int64_t kFakePeriodNs = 40'000'000;  // the fake camera's 
 // Empty when both loopback addresses are on an interface (the fake camera looks its address up there)
 // and GVCP's port is free on them; else what is missing.
 inline std::string fake_rig_unavailable() {
-  const std::string hint = " (a network namespace of its own: run it through ctest, which uses tests/aravis/in_netns.sh)";
+  const std::string hint =
+      " (a network namespace of its own: run it through ctest, which uses tests/aravis/in_netns.sh)";
   for (const char* address : kFakeAddress) {
     bool assigned = false;
     ifaddrs* list = nullptr;
@@ -62,7 +64,7 @@ inline std::string fake_rig_unavailable() {
 class FakeStereoRig {
  public:
   // Renders `views` instants of the scene (frame i at i * period) and starts both cameras.
-  FakeStereoRig(SynthParams params, int views) : renderer_(adjusted(params)) {
+  FakeStereoRig(SynthConfig params, int views) : renderer_(adjusted(params)) {
     for (std::size_t s = 0; s < 2; ++s) feeds_[s] = std::make_unique<Feed>();
     StereoFrame f;
     for (int i = 0; i < views; ++i) {
@@ -108,7 +110,7 @@ class FakeStereoRig {
     std::vector<cv::Mat> views16;  // the same as CV_16UC1 (x 257), for Mono16
   };
 
-  static SynthParams adjusted(SynthParams p) {
+  static SynthConfig adjusted(SynthConfig p) {
     p.fps = 1e9 / kFakePeriodNs;  // the renderer's frame i is the fake cameras' period i
     return p;
   }

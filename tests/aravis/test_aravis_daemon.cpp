@@ -3,7 +3,6 @@
 // measures the rendered rut; one camera stopped mid-stream is flagged in the status CAN message within
 // 200 ms without the daemon exiting, and measurements resume within 2 s of the camera coming back. The
 // CAN log is decoded by canmatrix with config/rutd.dbc (tests/can/decode_candump.py), not by rutd.
-#include <gtest/gtest.h>
 #include <signal.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -16,8 +15,10 @@
 #include <sstream>
 #include <thread>
 
+#include <gtest/gtest.h>
+
 #include "aravis/fake_stereo_rig.hpp"
-#include "drivers/calibration.hpp"
+#include "recording/calibration_file.hpp"
 #include "test_support.hpp"
 
 namespace rutd {
@@ -30,8 +31,8 @@ std::int64_t wall_ns() {
       .count();
 }
 
-SynthParams scene() {
-  SynthParams p;
+SynthConfig scene() {
+  SynthConfig p;
   p.rig.image_size = {640, 480};
   p.rut.depth_mm = 45;
   p.seed = 5;
@@ -101,8 +102,8 @@ struct DecodedFrame {
 
 std::vector<DecodedFrame> decode(const std::filesystem::path& log, const std::filesystem::path& out) {
   const std::string cmd = std::string("/usr/bin/python3 ") + RUTD_SOURCE_DIR + "/tests/can/decode_candump.py " +
-                          RUTD_SOURCE_DIR + "/config/rutd.dbc " + test::quoted(log) + " >" + test::quoted(out) +
-                          " 2>" + test::quoted(out.string() + ".err");
+                          RUTD_SOURCE_DIR + "/config/rutd.dbc " + test::quoted(log) + " >" + test::quoted(out) + " 2>" +
+                          test::quoted(out.string() + ".err");
   EXPECT_EQ(test::run_shell(cmd), 0) << test::read_text(out.string() + ".err");
   std::vector<DecodedFrame> frames;
   std::ifstream in(out);
@@ -180,7 +181,8 @@ TEST_F(AravisDaemon, RunMeasuresTheRutAndRidesThroughALostCamera) {
 
   // Measuring: wait for 30 measurements.
   const auto csv = dir_.path() / "m.csv";
-  for (auto t0 = std::chrono::steady_clock::now(); count_lines(csv) < 31 && std::chrono::steady_clock::now() - t0 < 60s;)
+  for (auto t0 = std::chrono::steady_clock::now();
+       count_lines(csv) < 31 && std::chrono::steady_clock::now() - t0 < 60s;)
     std::this_thread::sleep_for(50ms);
   ASSERT_GE(count_lines(csv), 31u) << test::read_text(log);
 
@@ -228,9 +230,10 @@ TEST_F(AravisDaemon, RunMeasuresTheRutAndRidesThroughALostCamera) {
   std::printf("before the fault: %d measurements, %d OK, worst |depth - truth| %.2f mm (truth %.2f)\n", before,
               before_ok, worst, truth);
   std::printf("right camera stopped: NoCamera on CAN after %.0f ms\n", (flagged_ns - stopped_ns) * 1e-6);
-  std::printf("right camera restarted: first measurement after %.0f ms, NoCamera cleared after %.0f ms; %d "
-              "measurements after\n",
-              (resumed_ns - restarted_ns) * 1e-6, (cleared_ns - restarted_ns) * 1e-6, after);
+  std::printf(
+      "right camera restarted: first measurement after %.0f ms, NoCamera cleared after %.0f ms; %d "
+      "measurements after\n",
+      (resumed_ns - restarted_ns) * 1e-6, (cleared_ns - restarted_ns) * 1e-6, after);
   EXPECT_GE(before_ok, before * 9 / 10);
   EXPECT_LT(worst, 1.0);
   ASSERT_NE(flagged_ns, 0) << "NoCamera never raised";

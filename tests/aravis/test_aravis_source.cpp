@@ -1,15 +1,15 @@
 // AravisStereoSource against two of Aravis's fake GigE Vision cameras over loopback UDP (see
 // fake_stereo_rig.hpp): discovery, configuration, pairing, measurement against the renderer's truth,
 // software trigger, a camera lost and back, and configurations the cameras must refuse.
-#include <gtest/gtest.h>
-
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <thread>
 
+#include <gtest/gtest.h>
+
 #include "aravis/fake_stereo_rig.hpp"
-#include "drivers/aravis_stereo_source.hpp"
+#include "camera/aravis_stereo_source.hpp"
 #include "pipeline/measurer.hpp"
 
 namespace rutd {
@@ -18,8 +18,8 @@ namespace {
 using Clock = std::chrono::steady_clock;
 constexpr int kViews = 6;
 
-SynthParams scene() {
-  SynthParams p;
+SynthConfig scene() {
+  SynthConfig p;
   p.rig.image_size = {640, 480};
   p.rut.depth_mm = 45;
   p.seed = 11;
@@ -44,7 +44,8 @@ AravisSourceConfig cameras() {
 // Which rendered view `image` is, or -1: the fake cameras send the views byte for byte.
 int view_index(const cv::Mat& image, const std::vector<cv::Mat>& views) {
   for (std::size_t i = 0; i < views.size(); ++i)
-    if (image.size() == views[i].size() && image.type() == views[i].type() && cv::norm(image, views[i], cv::NORM_INF) == 0)
+    if (image.size() == views[i].size() && image.type() == views[i].type() &&
+        cv::norm(image, views[i], cv::NORM_INF) == 0)
       return static_cast<int>(i);
   return -1;
 }

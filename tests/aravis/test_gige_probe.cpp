@@ -1,14 +1,14 @@
 // The GVCP discovery probe used to see a lost GigE Vision camera come back: its bytes against the worked
 // example in gige_probe.hpp (GigE Vision's GVCP header layout), and its answer against Aravis's fake
 // camera, present and absent.
-#include <gtest/gtest.h>
-
 #include <array>
 #include <chrono>
 #include <cstdio>
 
+#include <gtest/gtest.h>
+
 #include "aravis/fake_stereo_rig.hpp"
-#include "drivers/gige_probe.hpp"
+#include "gige_probe.hpp"
 
 namespace rutd {
 namespace {
@@ -23,12 +23,12 @@ TEST(GigeProbe, CommandAndAnswerBytesFollowGvcp) {
 
   std::array<std::uint8_t, 256> ack{0x00, 0x00, 0x00, 0x03, 0x00, 0xf8, 0xBE, 0xEF};
   EXPECT_TRUE(gvcp_is_discovery_ack(ack, 0xBEEF));
-  EXPECT_FALSE(gvcp_is_discovery_ack(ack, 0xBEF0));                 // another request's answer
+  EXPECT_FALSE(gvcp_is_discovery_ack(ack, 0xBEF0));                       // another request's answer
   EXPECT_FALSE(gvcp_is_discovery_ack(std::span(ack.data(), 7), 0xBEEF));  // too short
-  ack[1] = 0x06;                                                    // an error status
+  ack[1] = 0x06;                                                          // an error status
   EXPECT_FALSE(gvcp_is_discovery_ack(ack, 0xBEEF));
   ack[1] = 0x00;
-  ack[3] = 0x81;                                                    // READREG_ACK, not DISCOVERY_ACK
+  ack[3] = 0x81;  // READREG_ACK, not DISCOVERY_ACK
   EXPECT_FALSE(gvcp_is_discovery_ack(ack, 0xBEEF));
   EXPECT_FALSE(gige_camera_answers("not-an-address", std::chrono::milliseconds(10)));
 }

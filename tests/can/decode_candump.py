@@ -51,7 +51,8 @@ def read_log(path):
                 yield number, None, None, None, None
                 continue
             seconds, micros, _, ident, data = match.groups()
-            yield number, int(seconds) * 10**9 + int(micros) * 1000, int(ident, 16), len(ident) == 8, bytes.fromhex(data)
+            t_ns = int(seconds) * 10**9 + int(micros) * 1000
+            yield number, t_ns, int(ident, 16), len(ident) == 8, bytes.fromhex(data)
 
 
 def counter_signal(frame):
@@ -106,7 +107,8 @@ def main(dbc_path, log_path):
         expected_crc = crc8_sae_j1850(bytes([data_id & 0xFF, data_id >> 8]) + payload[1:])
         if payload[0] != expected_crc:
             counts["crc_errors"] += 1
-            problems.append(f"CRC_ERROR index={index} message={frame.name} got={payload[0]:02X} want={expected_crc:02X}")
+            problems.append(
+                f"CRC_ERROR index={index} message={frame.name} got={payload[0]:02X} want={expected_crc:02X}")
 
         decoded = frame.decode(bytearray(payload))
         counter_name = counter_signal(frame)

@@ -2,7 +2,6 @@
 // written to a candump log, decoded with config/rutd.dbc by canmatrix (tests/can/decode_candump.py, which
 // also checks CRC and counters with its own code), and converted by can-utils' log2asc. Expected values
 // come from the inputs and the signal ranges of the specification, not from the encoder.
-#include <gtest/gtest.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -17,9 +16,10 @@
 #include <string>
 #include <vector>
 
-#include "drivers/can_encoder.hpp"
-#include "drivers/candump_log.hpp"
+#include <gtest/gtest.h>
 
+#include "can/can_encoder.hpp"
+#include "can/candump_log.hpp"
 #include "test_support.hpp"
 
 namespace rutd {
@@ -39,15 +39,12 @@ constexpr const char* kPython = "/usr/bin/python3";
 
 fs::path make_temp_dir() {
   const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-  const fs::path dir = fs::temp_directory_path() /
-                       ("rutd_can_" + std::string(info->name()) + "_" + std::to_string(::getpid()));
+  const fs::path dir =
+      fs::temp_directory_path() / ("rutd_can_" + std::string(info->name()) + "_" + std::to_string(::getpid()));
   fs::remove_all(dir);
   fs::create_directories(dir);
   return dir;
 }
-
-
-
 
 std::string decoder_unavailable() {
   if (!fs::exists(kPython)) return std::string(kPython) + " is needed (with python3-canmatrix)";
@@ -88,9 +85,9 @@ DecoderRun run_decoder(const fs::path& log, const fs::path& dir) {
   const fs::path csv = dir / "decoded.csv";
   const fs::path err = dir / "decoder.err";
   DecoderRun run;
-  run.exit_code = run_shell(std::string(kPython) + " " + quoted(source / "tests/can/decode_candump.py") + " " +
-                            quoted(source / "config/rutd.dbc") + " " + quoted(log) + " >" + quoted(csv) + " 2>" +
-                            quoted(err));
+  run.exit_code =
+      run_shell(std::string(kPython) + " " + quoted(source / "tests/can/decode_candump.py") + " " +
+                quoted(source / "config/rutd.dbc") + " " + quoted(log) + " >" + quoted(csv) + " 2>" + quoted(err));
   run.diagnostics = read_text(err);
   std::ifstream in(csv);
   std::string line;
@@ -101,8 +98,8 @@ DecoderRun run_decoder(const fs::path& log, const fs::path& dir) {
       ADD_FAILURE() << "bad decoder line: " << line;
       continue;
     }
-    run.rows.push_back({std::stoi(f[0]), std::stoll(f[1]), f[2], f[3], std::stoll(f[4]), std::strtod(f[5].c_str(), nullptr),
-                        f[6], f[7] == "1"});
+    run.rows.push_back({std::stoi(f[0]), std::stoll(f[1]), f[2], f[3], std::stoll(f[4]),
+                        std::strtod(f[5].c_str(), nullptr), f[6], f[7] == "1"});
   }
   return run;
 }
@@ -128,7 +125,7 @@ struct Expect {
   bool na = false;
   double value = 0.0;
   double tolerance = 0.0;
-  std::string named;  // value-table text, checked when not empty
+  std::string named;    // value-table text, checked when not empty
   bool ranged = false;  // a scaled quantity, whose all-ones raw value would mean "not available"
 };
 
@@ -202,9 +199,9 @@ double spill(std::mt19937& rng, const Range& r) {
 }
 
 RutMeasurement random_measurement(std::mt19937& rng, RutStatus status) {
-  RutMeasurement m = ok_measurement(spill(rng, kDepth), spill(rng, kWidth), spill(rng, kPile), spill(rng, kPile),
-                                    spill(rng, kArea), spill(rng, kSlope), spill(rng, kCenter),
-                                    spill(rng, kQualityPercent) / 100.0);
+  RutMeasurement m =
+      ok_measurement(spill(rng, kDepth), spill(rng, kWidth), spill(rng, kPile), spill(rng, kPile), spill(rng, kArea),
+                     spill(rng, kSlope), spill(rng, kCenter), spill(rng, kQualityPercent) / 100.0);
   m.status = status;
   return m;
 }
@@ -214,8 +211,8 @@ std::vector<RutMeasurement> measurement_cases() {
   cases.push_back(ok_measurement(0, 0, 0, 0, 0, 0, 0, 0));
   cases.push_back(ok_measurement(400, 1000, 200, 200, 655340, 30, 1000, 1));
   cases.push_back(ok_measurement(0, 0, 0, 0, 0, -30, -1000, 0));
-  cases.push_back(ok_measurement(1e6, 5000, 300, 250, 1e7, 89, 5000, 1.5));         // saturate high
-  cases.push_back(ok_measurement(-5, -1, -3, -0.01, -100, -89, -5000, -0.2));      // saturate low
+  cases.push_back(ok_measurement(1e6, 5000, 300, 250, 1e7, 89, 5000, 1.5));                  // saturate high
+  cases.push_back(ok_measurement(-5, -1, -3, -0.01, -100, -89, -5000, -0.2));                // saturate low
   cases.push_back(ok_measurement(123.45, 333.375, 17.25, 0.05, 12345, -0.01, 0.25, 0.502));  // half steps
   cases.push_back(ok_measurement(kInf, 500, 50, 50, 1000, -kInf, 0, 0.5));
   for (int nan_field = 0; nan_field < 8; ++nan_field) {
@@ -401,11 +398,11 @@ TEST(CandumpLog, ParsesWhatItWritesAndCandumpVariants) {
 }
 
 TEST(CandumpLog, RejectsWhatIsNotAClassicDataFrame) {
-  for (const char* bad : {"", "(1.000000) can0", "1.000000 can0 123#00", "(1.00000) can0 123#00",
-                          "(1.000000) can0 123#R", "(1.000000) can0 123##0112233", "(1.000000) can0 1234#00",
-                          "(1.000000) can0 800#00", "(1.000000) can0 20000000#00", "(1.000000) can0 123#0",
-                          "(1.000000) can0 123#001122334455667788", "(1.000000) can0 12G#00",
-                          "(1.000000) can0 123#00 trailing", "(-1.000000) can0 123#00"}) {
+  for (const char* bad :
+       {"", "(1.000000) can0", "1.000000 can0 123#00", "(1.00000) can0 123#00", "(1.000000) can0 123#R",
+        "(1.000000) can0 123##0112233", "(1.000000) can0 1234#00", "(1.000000) can0 800#00",
+        "(1.000000) can0 20000000#00", "(1.000000) can0 123#0", "(1.000000) can0 123#001122334455667788",
+        "(1.000000) can0 12G#00", "(1.000000) can0 123#00 trailing", "(-1.000000) can0 123#00"}) {
     EXPECT_FALSE(parse_candump_line(bad)) << bad;
   }
 }
@@ -419,7 +416,8 @@ TEST(CanDbc, CanmatrixDecodesEveryFrameToTheInputValues) {
 
   const DecoderRun run = run_decoder(log, dir);
   EXPECT_EQ(run.exit_code, 0) << run.diagnostics;
-  EXPECT_NE(run.diagnostics.find("frames=" + std::to_string(frames.size()) + " crc_errors=0 counter_errors=0 "
+  EXPECT_NE(run.diagnostics.find("frames=" + std::to_string(frames.size()) +
+                                 " crc_errors=0 counter_errors=0 "
                                  "unknown_frames=0 bad_lines=0"),
             std::string::npos)
       << run.diagnostics;

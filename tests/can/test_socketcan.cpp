@@ -7,7 +7,6 @@
 // Environment: RUTD_TEST_CAN_INTERFACE  the virtual CAN interface to use (default vcan0)
 //              RUTD_SOCKETCAN_SENT_LOG  if set, EncodedFramesArriveUnchanged also writes the frames it
 //                                       sent there as a candump log (for the qemu test's candump check)
-#include <gtest/gtest.h>
 #include <linux/can.h>
 #include <linux/can/error.h>
 #include <linux/can/raw.h>
@@ -25,9 +24,11 @@
 #include <system_error>
 #include <vector>
 
-#include "drivers/can_encoder.hpp"
-#include "drivers/candump_log.hpp"
-#include "drivers/socketcan_sink.hpp"
+#include <gtest/gtest.h>
+
+#include "can/can_encoder.hpp"
+#include "can/candump_log.hpp"
+#include "can/socketcan_bus.hpp"
 
 namespace rutd {
 namespace {
@@ -186,15 +187,15 @@ TEST(SocketCanBusState, BusOffSetByErrorFrameClearedByRestartOrSend) {
 
 // Needs no CAN support: without it socket() fails, with it if_nametoindex() does; either way the
 // error must name the interface.
-TEST(SocketCanSinkOpen, FailureNamesTheInterface) {
+TEST(SocketCanBusOpen, FailureNamesTheInterface) {
   try {
-    SocketCanSink sink("rutdnosuch0");
+    SocketCanBus sink("rutdnosuch0");
     FAIL() << "opened a non-existent interface";
   } catch (const std::system_error& e) {
     EXPECT_NE(std::string(e.what()).find("rutdnosuch0"), std::string::npos) << e.what();
   }
   try {
-    SocketCanSink sink("an-interface-name-too-long");
+    SocketCanBus sink("an-interface-name-too-long");
     FAIL() << "accepted a name longer than IFNAMSIZ - 1";
   } catch (const std::system_error& e) {
     EXPECT_NE(std::string(e.what()).find("an-interface-name-too-long"), std::string::npos) << e.what();
@@ -256,7 +257,7 @@ class BusObserver {
   int fd_ = -1;
 };
 
-class SocketCanSinkOnKernel : public ::testing::Test {
+class SocketCanBusOnKernel : public ::testing::Test {
  protected:
   void SetUp() override {
     const std::string why = kernel_can_unavailable();
@@ -266,9 +267,9 @@ class SocketCanSinkOnKernel : public ::testing::Test {
 
 // Measurements and status frames as rutd encodes them go out unchanged and in order; the sink's
 // socket receives neither its own frames nor other data frames.
-TEST_F(SocketCanSinkOnKernel, EncodedFramesArriveUnchanged) {
+TEST_F(SocketCanBusOnKernel, EncodedFramesArriveUnchanged) {
   BusObserver observer;
-  SocketCanSink sink(test_interface());
+  SocketCanBus sink(test_interface());
   CanEncoder encoder;
   std::vector<CanFrame> sent;
   for (int i = 0; i < 5; ++i) {
@@ -313,9 +314,9 @@ TEST_F(SocketCanSinkOnKernel, EncodedFramesArriveUnchanged) {
   }
 }
 
-TEST_F(SocketCanSinkOnKernel, StandardIdentifiersAndShortFramesArriveUnchanged) {
+TEST_F(SocketCanBusOnKernel, StandardIdentifiersAndShortFramesArriveUnchanged) {
   BusObserver observer;
-  SocketCanSink sink(test_interface());
+  SocketCanBus sink(test_interface());
   const std::vector<CanFrame> sent = {frame(0x350, false, {}), frame(0x351, false, {0xFF}),
                                       frame(0x7FF, false, {1, 2, 3}), frame(0x00000001, true, {4, 5, 6, 7})};
   for (const CanFrame& f : sent) ASSERT_TRUE(sink.send(f));
@@ -328,13 +329,13 @@ TEST_F(SocketCanSinkOnKernel, StandardIdentifiersAndShortFramesArriveUnchanged) 
 
 // Error frames as a controller driver raises them: bus-off sets the state, restart clears it, and
 // classes the sink did not subscribe to (bus errors) do not reach it.
-TEST_F(SocketCanSinkOnKernel, ErrorFramesDriveBusOff) {
+TEST_F(SocketCanBusOnKernel, ErrorFramesDriveBusOff) {
   BusObserver injector;
   // vcan hands a frame to its receivers in a softirq that a loaded machine can run after write() returns.
   // The witness is bound before the sink, and the kernel delivers to the newest receiver first, so once
   // the witness has a frame the sink has it too.
   BusObserver witness(CAN_ERR_MASK);
-  SocketCanSink sink(test_interface());
+  SocketCanBus sink(test_interface());
   auto inject = [&](can_err_mask_t error_class) {
     if (!injector.inject(kernel_frame(CAN_ERR_FLAG | error_class, {0, 0, 0, 0, 0, 0, 0, 0}))) return false;
     const std::optional<struct can_frame> seen = witness.receive();
@@ -394,8 +395,8 @@ class InterfaceState {
 };
 
 // A write to an interface that is down fails at once and is counted, without blocking or throwing.
-TEST_F(SocketCanSinkOnKernel, InterfaceDownIsAWriteError) {
-  SocketCanSink sink(test_interface());
+TEST_F(SocketCanBusOnKernel, InterfaceDownIsAWriteError) {
+  SocketCanBus sink(test_interface());
   InterfaceState state(test_interface());
   if (!state.set_up(false)) GTEST_SKIP() << "cannot set " << test_interface() << " down (needs CAP_NET_ADMIN)";
   EXPECT_FALSE(sink.send(frame(0x18FF50A0, true, {1})));

@@ -5,7 +5,6 @@
 //
 // The kernel and the initramfs are cached in <build>/can-qemu; the first run downloads the kernel
 // package (about 70 MB). Skips where qemu, the kernel, busybox-static or the decoder cannot be had.
-#include <gtest/gtest.h>
 #include <sys/wait.h>
 #include <unistd.h>
 #include <x86intrin.h>
@@ -21,8 +20,9 @@
 #include <thread>
 #include <vector>
 
-#include "drivers/candump_log.hpp"
+#include <gtest/gtest.h>
 
+#include "can/candump_log.hpp"
 #include "test_support.hpp"
 
 namespace rutd {
@@ -39,8 +39,6 @@ constexpr int kBootTimeoutS = 150;  // rutd's own run takes 30-60 s under emulat
 fs::path bin_dir() { return fs::path(RUTD_BINARY).parent_path(); }
 fs::path cache_dir() { return bin_dir().parent_path() / "can-qemu"; }
 fs::path qemu_dir() { return fs::path(RUTD_SOURCE_DIR) / "tests" / "can" / "qemu"; }
-
-
 
 std::vector<std::string> lines_of(const std::string& text) {
   std::vector<std::string> lines;
@@ -84,10 +82,9 @@ GuestRun run_guest(const std::string& job) {
   const fs::path error = jobs / (job_file.stem().string() + ".err");
 
   static const long tsc_khz = measure_tsc_khz();
-  const std::string command = "RUTD_TSC_KHZ=" + std::to_string(tsc_khz) + " " +
-                              quoted(qemu_dir() / "run-guest.sh") + " " + quoted(cache_dir()) + " " +
-                              quoted(job_file) + " " + std::to_string(kBootTimeoutS) + " >" + quoted(console) +
-                              " 2>" + quoted(error);
+  const std::string command = "RUTD_TSC_KHZ=" + std::to_string(tsc_khz) + " " + quoted(qemu_dir() / "run-guest.sh") +
+                              " " + quoted(cache_dir()) + " " + quoted(job_file) + " " + std::to_string(kBootTimeoutS) +
+                              " >" + quoted(console) + " 2>" + quoted(error);
   GuestRun run;
   const auto t0 = std::chrono::steady_clock::now();
   run.status = run_shell(command);
@@ -144,7 +141,8 @@ std::string decoder_unavailable() {
 ::testing::AssertionResult guest_completed(const GuestRun& run) {
   if (run.status != 0) {
     return ::testing::AssertionFailure() << "run-guest.sh exited with " << run.status << ": " << run.error
-                                         << "\nconsole:\n" << run.console;
+                                         << "\nconsole:\n"
+                                         << run.console;
   }
   if (!job_exit(run.console)) {
     return ::testing::AssertionFailure() << "the guest never finished its job\nconsole:\n" << run.console;
@@ -166,8 +164,8 @@ class GuestKernel : public ::testing::Test {
   std::string skipped_;
 };
 
-#define SKIP_IF_NO_GUEST()                       \
-  do {                                           \
+#define SKIP_IF_NO_GUEST()                           \
+  do {                                               \
     if (!skipped_.empty()) GTEST_SKIP() << skipped_; \
   } while (false)
 
@@ -224,11 +222,11 @@ void check_candump_matches_sent(const std::string& console, std::size_t min_fram
 }
 
 // The sink's own kernel tests, which skip on a host without CAN, pass on a kernel with it.
-TEST_F(GuestKernel, SocketCanSinkTestsPassOnARealKernel) {
+TEST_F(GuestKernel, SocketCanBusTestsPassOnARealKernel) {
   const fs::path tests = bin_dir() / "test_socketcan";
   ASSERT_TRUE(fs::exists(tests)) << "build the test_socketcan target first: " << tests;
   const GuestRun run = boot(quoted(tests) +
-                            " --gtest_filter='SocketCanSinkOnKernel.*:SocketCanSinkOpen.*' 2>&1\n"
+                            " --gtest_filter='SocketCanBusOnKernel.*:SocketCanBusOpen.*' 2>&1\n"
                             "echo RUTD-TESTS-EXIT=$?\n");
   SKIP_IF_NO_GUEST();
   ASSERT_TRUE(guest_completed(run));
@@ -244,7 +242,7 @@ TEST_F(GuestKernel, CandumpRecordsWhatTheSinkSent) {
   ASSERT_TRUE(fs::exists(tests)) << "build the test_socketcan target first: " << tests;
   const GuestRun run = boot("exec /bin/sh " + quoted(qemu_dir() / "guest-candump.sh") +
                             " /mnt/sent.log env RUTD_SOCKETCAN_SENT_LOG=/mnt/sent.log " + quoted(tests) +
-                            " --gtest_filter=SocketCanSinkOnKernel.EncodedFramesArriveUnchanged\n");
+                            " --gtest_filter=SocketCanBusOnKernel.EncodedFramesArriveUnchanged\n");
   SKIP_IF_NO_GUEST();
   ASSERT_TRUE(guest_completed(run));
   check_candump_matches_sent(run.console, 15);
@@ -264,9 +262,10 @@ bool rutd_has_socketcan_option() {
 TEST_F(GuestKernel, RutdSendsOnVcanWhatItLogs) {
   fs::create_directories(cache_dir());
   if (!rutd_has_socketcan_option()) GTEST_SKIP() << "`rutd run` has no --socketcan option yet";
-  const GuestRun run = boot("exec /bin/sh " + quoted(qemu_dir() / "guest-candump.sh") + " /mnt/rutd.log " +
-                            quoted(RUTD_BINARY) + " run --frames 5 --size 320x240 --engine bm --no-dic"
-                            " --socketcan vcan0 --candump /mnt/rutd.log\n");
+  const GuestRun run =
+      boot("exec /bin/sh " + quoted(qemu_dir() / "guest-candump.sh") + " /mnt/rutd.log " + quoted(RUTD_BINARY) +
+           " run --frames 5 --size 320x240 --engine bm --no-dic"
+           " --socketcan vcan0 --candump /mnt/rutd.log\n");
   SKIP_IF_NO_GUEST();
   ASSERT_TRUE(guest_completed(run));
   check_candump_matches_sent(run.console, 10);  // two measurement frames per stereo pair at least

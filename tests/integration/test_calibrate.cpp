@@ -1,13 +1,13 @@
 // Stereo calibration on 13 real chessboard pairs (OpenCV's sample data, tests/data/chessboard-stereo).
 // OpenCV's own stereo calibration reaches about 0.44 px RMS on them; ours must do as well, and the file
 // it writes must load and rectify the corners onto common rows.
-#include <gtest/gtest.h>
-
 #include <fstream>
 
-#include "drivers/calibration.hpp"
-#include "drivers/input_error.hpp"
+#include <gtest/gtest.h>
+
+#include "core/input_error.hpp"
 #include "pipeline/stereo_calibrate.hpp"
+#include "recording/calibration_file.hpp"
 #include "test_support.hpp"
 
 namespace rutd {
@@ -20,8 +20,8 @@ TEST(Calibrate, RealChessboardPairsReachOpenCvAccuracy) {
   read_image_list(kList, left, right);
   ASSERT_EQ(left.size(), 13u);
   const StereoCalibrationReport r = calibrate_stereo(left, right, {{9, 6}, 25.0});
-  std::printf("pairs used %zu, RMS %.4f px, rectified row error %.4f px, T = (%.2f, %.2f, %.2f) mm\n",
-              r.used.size(), r.rms_px, r.epipolar_rms_px, r.calibration.T[0], r.calibration.T[1], r.calibration.T[2]);
+  std::printf("pairs used %zu, RMS %.4f px, rectified row error %.4f px, T = (%.2f, %.2f, %.2f) mm\n", r.used.size(),
+              r.rms_px, r.epipolar_rms_px, r.calibration.T[0], r.calibration.T[1], r.calibration.T[2]);
   EXPECT_EQ(r.used.size(), 13u);
   EXPECT_LT(r.rms_px, 0.50);
   EXPECT_LT(r.epipolar_rms_px, 0.40);
@@ -53,7 +53,8 @@ TEST(Calibrate, MissingImageIsNamed) {
     EXPECT_NE(std::string(e.what()).find("nope_l.png"), std::string::npos) << e.what();
   }
   const std::string err = (tmp.path() / "err.txt").string();
-  EXPECT_EQ(test::run_rutd("calibrate --imagelist '" + list + "' --out '" + (tmp.path() / "c.yaml").string() + "'", err), 2);
+  EXPECT_EQ(
+      test::run_rutd("calibrate --imagelist '" + list + "' --out '" + (tmp.path() / "c.yaml").string() + "'", err), 2);
   std::ifstream in(err);
   const std::string text((std::istreambuf_iterator<char>(in)), {});
   EXPECT_NE(text.find("nope_l.png"), std::string::npos) << text;

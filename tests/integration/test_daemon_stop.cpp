@@ -1,6 +1,5 @@
 // `rutd run` as systemd runs it: SIGTERM must drain and exit 0 within one second (the unit's stop
 // contract), with everything published so far complete in its outputs.
-#include <gtest/gtest.h>
 #include <signal.h>
 #include <spawn.h>
 #include <sys/wait.h>
@@ -11,8 +10,10 @@
 #include <thread>
 #include <vector>
 
-#include "drivers/candump_log.hpp"
-#include "drivers/measurement_csv.hpp"
+#include <gtest/gtest.h>
+
+#include "can/candump_log.hpp"
+#include "recording/measurement_csv.hpp"
 #include "test_support.hpp"
 
 extern char** environ;

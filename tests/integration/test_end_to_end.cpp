@@ -1,8 +1,6 @@
 // End to end through the rutd program, as a user runs it: `rutd synth` renders a recording of a rut of
 // known shape (the renderer's analytic truth is the independent reference), `rutd replay` measures it,
 // and every measured depth must be within 1.0 mm of the truth (the seed's own algorithm was 3-5 mm off).
-#include <gtest/gtest.h>
-
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
@@ -11,8 +9,10 @@
 #include <string>
 #include <vector>
 
-#include "drivers/measurement_csv.hpp"
-#include "drivers/truth_csv.hpp"
+#include <gtest/gtest.h>
+
+#include "recording/measurement_csv.hpp"
+#include "synthetic/truth_csv.hpp"
 #include "test_support.hpp"
 
 namespace rutd {
@@ -40,8 +40,8 @@ TEST_P(EndToEnd, DepthWithinOneMillimetreOfTruth) {
   const std::string rec = (tmp.path() / "rec").string();
   std::ostringstream synth;
   synth << "synth " << rec << " --frames " << c.frames << " --depth " << c.depth_mm << " --size " << c.size
-        << " --texture " << c.texture << " --roll " << c.roll_deg << " --baseline " << c.baseline_mm
-        << " --height " << c.height_mm << " --seed " << c.seed;
+        << " --texture " << c.texture << " --roll " << c.roll_deg << " --baseline " << c.baseline_mm << " --height "
+        << c.height_mm << " --seed " << c.seed;
   ASSERT_EQ(test::run_rutd(synth.str()), 0);
   const std::string csv = (tmp.path() / "m.csv").string();
   ASSERT_EQ(test::run_rutd("replay " + rec + " --out " + csv), 0);
@@ -53,8 +53,7 @@ TEST_P(EndToEnd, DepthWithinOneMillimetreOfTruth) {
     ASSERT_EQ(rows[i].measurement.status, RutStatus::Ok) << "frame " << i;
     const double err = rows[i].measurement.depth_mm - truth[i].depth_mm;
     std::printf("%-28s frame %zu  truth %.2f  measured %.3f  error %+.3f mm  width %.1f/%.1f\n", c.name, i,
-                truth[i].depth_mm, rows[i].measurement.depth_mm, err, rows[i].measurement.width_mm,
-                truth[i].width_mm);
+                truth[i].depth_mm, rows[i].measurement.depth_mm, err, rows[i].measurement.width_mm, truth[i].width_mm);
     EXPECT_LE(std::abs(err), 1.0) << c.name << " frame " << i;
   }
 }

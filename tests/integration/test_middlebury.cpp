@@ -83,31 +83,31 @@ Score score(const cv::Mat& disparity, const cv::Mat& truth) {
 }
 
 // Bounds per engine/data set, %: bad-1.0 at most measured * 1.15 + 0.3, coverage at least measured - 3
-// (default EngineParams, band from drange.txt; the left num_disparities columns have no estimate).
+// (default EngineConfig, band from drange.txt; the left num_disparities columns have no estimate).
 struct Bound {
   double max_bad1, min_coverage;
 };
 const std::map<std::string, Bound> kBounds = {
-    {"bm/cone", {5.9, 68}},  // measured 4.86, 71.45
-    {"sgbm/cone", {7.2, 78}},  // measured 5.97, 81.47
-    {"sgbm3way/cone", {6.9, 78}},  // measured 5.76, 81.13
-    {"hh4/cone", {7.9, 79}},  // measured 6.59, 81.55
-    {"hh/cone", {7.8, 79}},  // measured 6.48, 81.53
-    {"bm/Cloth3", {2.1, 68}},  // measured 1.59, 71.10
-    {"sgbm/Cloth3", {2.6, 76}},  // measured 2.02, 79.04
-    {"sgbm3way/Cloth3", {2.5, 76}},  // measured 1.95, 79.01
-    {"hh4/Cloth3", {2.7, 76}},  // measured 2.09, 78.99
-    {"hh/Cloth3", {2.7, 76}},  // measured 2.08, 79.05
-    {"bm/Reindeer", {12.2, 49}},  // measured 10.34, 52.12
-    {"sgbm/Reindeer", {11.6, 70}},  // measured 9.81, 72.63
+    {"bm/cone", {5.9, 68}},             // measured 4.86, 71.45
+    {"sgbm/cone", {7.2, 78}},           // measured 5.97, 81.47
+    {"sgbm3way/cone", {6.9, 78}},       // measured 5.76, 81.13
+    {"hh4/cone", {7.9, 79}},            // measured 6.59, 81.55
+    {"hh/cone", {7.8, 79}},             // measured 6.48, 81.53
+    {"bm/Cloth3", {2.1, 68}},           // measured 1.59, 71.10
+    {"sgbm/Cloth3", {2.6, 76}},         // measured 2.02, 79.04
+    {"sgbm3way/Cloth3", {2.5, 76}},     // measured 1.95, 79.01
+    {"hh4/Cloth3", {2.7, 76}},          // measured 2.09, 78.99
+    {"hh/Cloth3", {2.7, 76}},           // measured 2.08, 79.05
+    {"bm/Reindeer", {12.2, 49}},        // measured 10.34, 52.12
+    {"sgbm/Reindeer", {11.6, 70}},      // measured 9.81, 72.63
     {"sgbm3way/Reindeer", {11.6, 70}},  // measured 9.79, 72.87
-    {"hh4/Reindeer", {11.5, 70}},  // measured 9.78, 72.89
-    {"hh/Reindeer", {11.3, 70}},  // measured 9.59, 72.67
-    {"bm/Wood2", {2.7, 58}},  // measured 2.09, 60.87
-    {"sgbm/Wood2", {8.4, 74}},  // measured 7.06, 77.02
-    {"sgbm3way/Wood2", {1.8, 76}},  // measured 1.31, 78.95
-    {"hh4/Wood2", {2.2, 76}},  // measured 1.62, 78.89
-    {"hh/Wood2", {2.7, 74}},  // measured 2.08, 77.29
+    {"hh4/Reindeer", {11.5, 70}},       // measured 9.78, 72.89
+    {"hh/Reindeer", {11.3, 70}},        // measured 9.59, 72.67
+    {"bm/Wood2", {2.7, 58}},            // measured 2.09, 60.87
+    {"sgbm/Wood2", {8.4, 74}},          // measured 7.06, 77.02
+    {"sgbm3way/Wood2", {1.8, 76}},      // measured 1.31, 78.95
+    {"hh4/Wood2", {2.2, 76}},           // measured 1.62, 78.89
+    {"hh/Wood2", {2.7, 74}},            // measured 2.08, 77.29
 };
 
 TEST(Middlebury, EnginesAndDicAgainstGroundTruth) {
@@ -128,7 +128,7 @@ TEST(Middlebury, EnginesAndDicAgainstGroundTruth) {
       EXPECT_GE(before.coverage, bound.min_coverage) << key;
       if (kind == EngineKind::Bm || kind == EngineKind::Sgbm) {
         DicWorkspace ws;
-        refine_disparity_dic(l.left, l.right, disparity, DicParams{}, ws);
+        refine_disparity_dic(l.left, l.right, disparity, DicConfig{}, ws);
         const Score after = score(disparity, l.truth);
         std::printf(" | %17.2f %9.2f", after.bad05, after.coverage);
         EXPECT_LE(after.bad05, before.bad05 + 0.5) << key;

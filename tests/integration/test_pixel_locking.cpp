@@ -1,13 +1,13 @@
 // OpenCV's sub-pixel disparity is biased toward whole pixels ("pixel locking"): on a rendered rut the flat
 // bottom comes out at the wrong depth by millimetres. The digital image correlation refinement must remove
 // that bias. Truth: the renderer's exact ray cast of every rectified pixel, independent of the matcher.
-#include <gtest/gtest.h>
-
 #include <cmath>
 #include <cstdio>
 
-#include "drivers/synthetic_renderer.hpp"
+#include <gtest/gtest.h>
+
 #include "pipeline/measurer.hpp"
+#include "synthetic/synthetic_renderer.hpp"
 
 namespace rutd {
 namespace {
@@ -54,7 +54,7 @@ TEST(PixelLocking, DicRemovesTheSubPixelBiasOfTheRutBottom) {
   std::printf("height  bottom truth px   SGBM bias px  (mm)     SGBM+DIC bias px  (mm)\n");
   // Heights 2 mm apart move the bottom's true disparity through different fractions of a pixel.
   for (double height : {350.0, 352.0, 354.0, 356.0}) {
-    SynthParams p;
+    SynthConfig p;
     p.rut.depth_mm = 60;
     p.rig.baseline_mm = 60;
     p.rig.height_mm = height;
@@ -67,7 +67,7 @@ TEST(PixelLocking, DicRemovesTheSubPixelBiasOfTheRutBottom) {
     plain.measure(frame.left, frame.right);
     const Bias before = bottom_bias(r, plain, plain.disparity());
     c.dic = true;
-    c.dic_params.row_step = 1;
+    c.dic_config.row_step = 1;
     StereoMeasurer refined(r.calibration(), c);
     refined.measure(frame.left, frame.right);
     const Bias after = bottom_bias(r, refined, refined.disparity());

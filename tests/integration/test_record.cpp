@@ -3,7 +3,6 @@
 // fills up (a 3 MB tmpfs) or under a file-size limit reports one clear error naming the file, keeps
 // measuring, and raises RecordingError in the status frames (decoded by canmatrix, independently of rutd).
 #include <fcntl.h>
-#include <gtest/gtest.h>
 #include <signal.h>
 #include <spawn.h>
 #include <sys/wait.h>
@@ -21,8 +20,10 @@
 #include <thread>
 #include <vector>
 
-#include "drivers/measurement_csv.hpp"
-#include "drivers/recording.hpp"
+#include <gtest/gtest.h>
+
+#include "recording/measurement_csv.hpp"
+#include "recording/recording.hpp"
 #include "test_support.hpp"
 
 extern char** environ;
@@ -47,7 +48,7 @@ std::vector<std::uint64_t> check_every_listed_pair_replays(const fs::path& dir) 
   const std::string csv = test::read_text(dir / "frames.csv");
   const auto complete_lines = static_cast<std::size_t>(std::count(csv.begin(), csv.end(), '\n'));
   EXPECT_GE(complete_lines, 1u) << "no header line in " << dir;
-  RecordingReader reader(dir.string());
+  ReplaySource reader(dir.string());
   EXPECT_EQ(reader.calibration().image_size, kSize);
   std::vector<std::uint64_t> seqs;
   StereoFrame frame;
@@ -90,8 +91,8 @@ TEST(Record, KilledAtRandomMomentsEveryListedPairReplays) {
   const fs::path config = tmp.path() / "small.yaml";
   std::ofstream(config) << "source:\n  synthetic:\n    size: " << kSize.width << "x" << kSize.height << "\n";
   const char* seed_env = std::getenv("RUTD_TEST_SEED");
-  const unsigned seed = seed_env != nullptr ? static_cast<unsigned>(std::strtoul(seed_env, nullptr, 10))
-                                            : std::random_device{}();
+  const unsigned seed =
+      seed_env != nullptr ? static_cast<unsigned>(std::strtoul(seed_env, nullptr, 10)) : std::random_device{}();
   std::printf("seed %u (set RUTD_TEST_SEED to repeat)\n", seed);
   std::mt19937 rng(seed);
   // From during start-up (before the folder exists) to well into the recording.
@@ -200,8 +201,8 @@ TEST(Record, CommandLimitsSignalsExistingFolderAndFailureExitCodes) {
 std::vector<int> decoded_recording_error(const fs::path& log, const fs::path& work) {
   const fs::path decoded = work / "decoded.csv";
   const std::string cmd = std::string("/usr/bin/python3 ") + RUTD_SOURCE_DIR + "/tests/can/decode_candump.py " +
-                          RUTD_SOURCE_DIR + "/config/rutd.dbc " + test::quoted(log) + " > " + test::quoted(decoded) + " 2> " +
-                          test::quoted(work / "decode.err");
+                          RUTD_SOURCE_DIR + "/config/rutd.dbc " + test::quoted(log) + " > " + test::quoted(decoded) +
+                          " 2> " + test::quoted(work / "decode.err");
   EXPECT_EQ(test::run_shell(cmd), 0) << test::read_text(work / "decode.err");
   std::vector<int> values;
   for (const std::string& line : lines_of(decoded)) {
@@ -220,8 +221,8 @@ bool have_canmatrix() { return std::system("/usr/bin/python3 -c 'import canmatri
 // all `frames` measurements published, every listed pair replayable, and the status frames raising
 // RecordingError once the recording failed and keeping it raised.
 void expect_recording_failed_measuring_went_on(const fs::path& work, const fs::path& err, const std::string& rec_dir,
-                                               const std::string& reason, const fs::path& csv,
-                                               std::size_t frames, const fs::path& log, const fs::path& recording) {
+                                               const std::string& reason, const fs::path& csv, std::size_t frames,
+                                               const fs::path& log, const fs::path& recording) {
   const std::vector<std::string> stderr_lines = lines_of(err);
   std::vector<std::string> reason_lines;
   for (const auto& l : stderr_lines)
@@ -284,9 +285,9 @@ TEST(Record, FileSizeLimitStopsRecordingWithOneErrorAndMeasuringGoesOn) {
   // 32 KiB: more than the CSV, the candump log, the log on stderr and calibration.yaml of this short
   // run need, less than one 320x240 PNG of the synthetic ground. Without ignoring SIGXFSZ the daemon
   // would be killed by the first oversized write.
-  const int rc = test::run_shell("prlimit --fsize=32768 " + test::quoted(RUTD_BINARY) + " run --size 320x240 --frames 30" +
-                                 " --record " + test::quoted(rec) + " --csv " + test::quoted(csv) + " --candump " + test::quoted(log) +
-                                 " 2>" + test::quoted(err));
+  const int rc = test::run_shell("prlimit --fsize=32768 " + test::quoted(RUTD_BINARY) +
+                                 " run --size 320x240 --frames 30" + " --record " + test::quoted(rec) + " --csv " +
+                                 test::quoted(csv) + " --candump " + test::quoted(log) + " 2>" + test::quoted(err));
   ASSERT_EQ(rc, 0) << test::read_text(err);
   expect_recording_failed_measuring_went_on(tmp.path(), err, rec.string(), "File too large", csv, 30, log, rec);
 }

@@ -3,8 +3,6 @@
 // config/rutd.dbc (tests/can/decode_candump.py, which also checks every CRC and counter). Every decoded
 // value must equal the CSV within the signal's resolution, and the depth the renderer's truth within the
 // measurement tolerance.
-#include <gtest/gtest.h>
-
 #include <cmath>
 #include <fstream>
 #include <map>
@@ -12,8 +10,10 @@
 #include <string>
 #include <vector>
 
-#include "drivers/measurement_csv.hpp"
-#include "drivers/truth_csv.hpp"
+#include <gtest/gtest.h>
+
+#include "recording/measurement_csv.hpp"
+#include "synthetic/truth_csv.hpp"
 #include "test_support.hpp"
 
 namespace rutd {

@@ -1,12 +1,12 @@
 // Bad input through the rutd program, as a user meets it: one clear error naming the file and the
 // field or line, and nothing already measured lost.
-#include <gtest/gtest.h>
-
 #include <filesystem>
 #include <fstream>
 #include <string>
 
-#include "drivers/measurement_csv.hpp"
+#include <gtest/gtest.h>
+
+#include "recording/measurement_csv.hpp"
 #include "test_support.hpp"
 
 namespace rutd {

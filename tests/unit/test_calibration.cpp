@@ -1,20 +1,21 @@
 // Calibration file: the real stereo_calib text loads, every bad input gives one error naming the file
 // and the key, save -> load round-trips exactly, and OpenCV's own FileStorage reads what we write.
-#include <gtest/gtest.h>
 #include <unistd.h>
 
 #include <filesystem>
 #include <fstream>
 #include <map>
-#include <opencv2/calib3d.hpp>
-#include <opencv2/core.hpp>
 #include <random>
 #include <string>
 #include <utility>
 #include <vector>
 
-#include "drivers/calibration.hpp"
-#include "drivers/input_error.hpp"
+#include <gtest/gtest.h>
+#include <opencv2/calib3d.hpp>
+#include <opencv2/core.hpp>
+
+#include "core/input_error.hpp"
+#include "recording/calibration_file.hpp"
 
 namespace rutd {
 namespace {
@@ -131,9 +132,8 @@ TEST_F(CalibrationTest, LoadsStereoCalibSampleOutput) {
 }
 
 TEST_F(CalibrationTest, AcceptsColumnDistortionAndRodriguesRotation) {
-  const std::string text =
-      stereo_calib_text({{"D2", matrix_block("D2", 5, 1, "-0.1, 0.02, 0.001, -0.002, 0.003")},
-                         {"R", matrix_block("R", 3, 1, "0.0052, -0.0131, 0.0023")}});
+  const std::string text = stereo_calib_text({{"D2", matrix_block("D2", 5, 1, "-0.1, 0.02, 0.001, -0.002, 0.003")},
+                                              {"R", matrix_block("R", 3, 1, "0.0052, -0.0131, 0.0023")}});
   const StereoCalibration c = load_calibration(write(text));
   const cv::Vec3d rodrigues(0.0052, -0.0131, 0.0023);
   ASSERT_EQ(c.D2.size(), cv::Size(5, 1));
@@ -182,8 +182,7 @@ std::vector<BadCase> bad_cases() {
        "Missing , between the elements (not a valid OpenCV FileStorage YAML file)"},
       {"width_text", stereo_calib_text("image_width", "image_width: wide\n"), "image_width",
        "expected an integer, found the string 'wide'"},
-      {"width_real", stereo_calib_text("image_width", "image_width: 1280.5\n"), "image_width",
-       "expected an integer"},
+      {"width_real", stereo_calib_text("image_width", "image_width: 1280.5\n"), "image_width", "expected an integer"},
       {"height_zero", stereo_calib_text("image_height", "image_height: 0\n"), "image_height",
        "must be positive, found 0"},
       {"width_negative", stereo_calib_text("image_width", "image_width: -1280\n"), "image_width",
@@ -192,46 +191,43 @@ std::vector<BadCase> bad_cases() {
        "expected a 3x3 matrix, found 2x3"},
       {"m1_scalar", stereo_calib_text("M1", "M1: 1410.0\n"), "M1", "expected a matrix (!!opencv-matrix)"},
       {"m2_text_element",
-       stereo_calib_text("M2", matrix_block("M2", 3, 3, "1410., abc, 645., 0., 1410., 483., 0., 0., 1.")),
-       "M2", "element 1 is not a number: the string 'abc'"},
-      {"m1_nan",
-       stereo_calib_text("M1", matrix_block("M1", 3, 3, "1410., 0., .nan, 0., 1410., 483., 0., 0., 1.")),
+       stereo_calib_text("M2", matrix_block("M2", 3, 3, "1410., abc, 645., 0., 1410., 483., 0., 0., 1.")), "M2",
+       "element 1 is not a number: the string 'abc'"},
+      {"m1_nan", stereo_calib_text("M1", matrix_block("M1", 3, 3, "1410., 0., .nan, 0., 1410., 483., 0., 0., 1.")),
        "M1", "element 2 is not finite"},
       {"d2_inf", stereo_calib_text("D2", matrix_block("D2", 1, 5, "0.1, -.inf, 0., 0., 0.")), "D2",
        "element 1 is not finite"},
-      {"data_count", stereo_calib_text("M1", matrix_block("M1", 3, 3, "1410., 0., 640., 0., 1410., 480.")),
-       "M1", "data holds 6 values but rows x cols is 3x3"},
+      {"data_count", stereo_calib_text("M1", matrix_block("M1", 3, 3, "1410., 0., 640., 0., 1410., 480.")), "M1",
+       "data holds 6 values but rows x cols is 3x3"},
       {"focal_negative",
-       stereo_calib_text("M1", matrix_block("M1", 3, 3, "-1410., 0., 640., 0., 1410., 480., 0., 0., 1.")),
-       "M1", "focal length must be positive, found fx = -1410, fy = 1410"},
-      {"focal_zero",
-       stereo_calib_text("M2", matrix_block("M2", 3, 3, "1410., 0., 640., 0., 0., 480., 0., 0., 1.")), "M2",
-       "focal length must be positive"},
+       stereo_calib_text("M1", matrix_block("M1", 3, 3, "-1410., 0., 640., 0., 1410., 480., 0., 0., 1.")), "M1",
+       "focal length must be positive, found fx = -1410, fy = 1410"},
+      {"focal_zero", stereo_calib_text("M2", matrix_block("M2", 3, 3, "1410., 0., 640., 0., 0., 480., 0., 0., 1.")),
+       "M2", "focal length must be positive"},
       {"not_camera_matrix",
-       stereo_calib_text("M1", matrix_block("M1", 3, 3, "1410., 0., 640., 0., 1410., 480., 0., 0., 2.")),
-       "M1", "not a camera matrix"},
+       stereo_calib_text("M1", matrix_block("M1", 3, 3, "1410., 0., 640., 0., 1410., 480., 0., 0., 2.")), "M1",
+       "not a camera matrix"},
       {"principal_point_far",
-       stereo_calib_text("M2", matrix_block("M2", 3, 3, "1410., 0., 5000., 0., 1410., 480., 0., 0., 1.")),
-       "M2", "principal point (5000, 480) is far outside the 1280x960 image"},
+       stereo_calib_text("M2", matrix_block("M2", 3, 3, "1410., 0., 5000., 0., 1410., 480., 0., 0., 1.")), "M2",
+       "principal point (5000, 480) is far outside the 1280x960 image"},
       {"d1_length", stereo_calib_text("D1", matrix_block("D1", 1, 6, "0.1, 0.1, 0., 0., 0., 0.")), "D1",
        "N in 4, 5, 8, 12, 14, found 1x6"},
       {"d1_2d", stereo_calib_text("D1", matrix_block("D1", 2, 4, "0.1, 0.1, 0., 0., 0., 0., 0., 0.")), "D1",
        "found 2x4"},
       {"r_shape", stereo_calib_text("R", matrix_block("R", 3, 2, "1., 0., 0., 1., 0., 0.")), "R",
        "expected a 3x3 rotation matrix or a 3x1 Rodrigues vector, found 3x2"},
-      {"r_scaled", stereo_calib_text("R", matrix_block("R", 3, 3, "1.1, 0., 0., 0., 1.1, 0., 0., 0., 1.1")),
-       "R", "not a rotation matrix: R^T R differs from the identity by 0.21"},
-      {"r_reflection", stereo_calib_text("R", matrix_block("R", 3, 3, "1., 0., 0., 0., 1., 0., 0., 0., -1.")),
-       "R", "determinant is -1 (a reflection, not a rotation)"},
+      {"r_scaled", stereo_calib_text("R", matrix_block("R", 3, 3, "1.1, 0., 0., 0., 1.1, 0., 0., 0., 1.1")), "R",
+       "not a rotation matrix: R^T R differs from the identity by 0.21"},
+      {"r_reflection", stereo_calib_text("R", matrix_block("R", 3, 3, "1., 0., 0., 0., 1., 0., 0., 0., -1.")), "R",
+       "determinant is -1 (a reflection, not a rotation)"},
       {"t_shape", stereo_calib_text("T", matrix_block("T", 2, 1, "-120., 0.3")), "T",
        "expected a 3x1 or 1x3 translation, found 2x1"},
       {"t_zero", stereo_calib_text("T", matrix_block("T", 3, 1, "0., 0., 0.")), "T", "zero baseline"},
       {"t_metres", stereo_calib_text("T", matrix_block("T", 3, 1, "-0.12, 0.0003, 0.0012")), "T",
        "T must be in millimetres"},
       {"bad_dt",
-       stereo_calib_text("R",
-                         "R: !!opencv-matrix\n   rows: 3\n   cols: 3\n   dt: q\n   data: [ 1., 0., 0. ]\n"),
-       "R", "'dt' must be a single-channel element type"},
+       stereo_calib_text("R", "R: !!opencv-matrix\n   rows: 3\n   cols: 3\n   dt: q\n   data: [ 1., 0., 0. ]\n"), "R",
+       "'dt' must be a single-channel element type"},
   };
   for (const auto& [key, block] : kStereoCalibBlocks) {
     if (key == "R1" || key == "Q") continue;  // optional keys
@@ -256,15 +252,7 @@ StereoCalibration random_calibration(std::mt19937& rng, int distortion_length) {
   StereoCalibration c;
   c.image_size = {1936, 1216};
   c.M1 = {1800 + 100 * u(rng), 0, 968 + 20 * u(rng), 0, 1800 + 100 * u(rng), 608 + 20 * u(rng), 0, 0, 1};
-  c.M2 = {1800 + 100 * u(rng),
-          0.01 * u(rng),
-          968 + 20 * u(rng),
-          0,
-          1800 + 100 * u(rng),
-          608 + 20 * u(rng),
-          0,
-          0,
-          1};
+  c.M2 = {1800 + 100 * u(rng), 0.01 * u(rng), 968 + 20 * u(rng), 0, 1800 + 100 * u(rng), 608 + 20 * u(rng), 0, 0, 1};
   c.D1 = cv::Mat(1, distortion_length, CV_64F);
   c.D2 = cv::Mat(1, distortion_length, CV_64F);
   for (int i = 0; i < distortion_length; ++i) {
@@ -370,8 +358,7 @@ TEST_F(CalibrationTest, FrameSizeCheckNamesFrameAndDimension) {
     check_frame_size(c, {640, 960}, "left/00000001.png");
     FAIL() << "no error";
   } catch (const InputError& e) {
-    EXPECT_EQ(std::string(e.what()),
-              "left/00000001.png: image_width: frame is 640x960 but calibration says 1280x960");
+    EXPECT_EQ(std::string(e.what()), "left/00000001.png: image_width: frame is 640x960 but calibration says 1280x960");
   }
   try {
     check_frame_size(c, {1280, 480}, "right/00000002.png");

@@ -1,12 +1,12 @@
 // The configuration file: the embedded default loads, and every kind of bad input gets one error that
 // names the file, the line and the key.
+#include <fstream>
+
 #include <gtest/gtest.h>
 
+#include "core/input_error.hpp"
 #include "daemon/config.hpp"
-#include "drivers/input_error.hpp"
 #include "test_support.hpp"
-
-#include <fstream>
 
 namespace rutd {
 namespace {
@@ -58,11 +58,14 @@ TEST(Config, ValuesAreRead) {
   EXPECT_FALSE(c.can.extended);
   EXPECT_EQ(c.can.source_address, 0x42);
   EXPECT_EQ(c.measurement.rut.min_rut_width_mm, 100);
-  EXPECT_EQ(c.pipeline.cpu_affinity, (std::vector<int>{0, 1}));
+  EXPECT_EQ(c.pipeline.threads[0].cpu, 0);  // cpu_affinity: [0, 1]
+  EXPECT_EQ(c.pipeline.threads[1].cpu, 1);
+  EXPECT_EQ(c.pipeline.threads[2].cpu, -1);
 }
 
 TEST(Config, UnknownKeyIsNamedWithItsLine) {
-  expect_error("measurement:\n  engine: sgbm\n  engnie: hh\n", {"test.yaml", "line 3", "measurement.engnie", "unknown key"});
+  expect_error("measurement:\n  engine: sgbm\n  engnie: hh\n",
+               {"test.yaml", "line 3", "measurement.engnie", "unknown key"});
   expect_error("sorce:\n  type: synthetic\n", {"line 1", "sorce", "unknown key"});
 }
 
@@ -125,11 +128,13 @@ TEST(Config, CameraSectionIsReadAndChecked) {
   expect_error("source:\n  type: aravis\n  aravis:\n    left: A\n    right: A\ncalibration: r.yaml\n",
                {"source.aravis.right", "same camera"});
   expect_error(cams + "    sync: genlock\ncalibration: r.yaml\n", {"line 6", "source.aravis.sync", "genlock"});
-  expect_error(cams + "    roi: [0, 0, 640]\ncalibration: r.yaml\n", {"line 6", "source.aravis.roi", "[x, y, width, height]"});
+  expect_error(cams + "    roi: [0, 0, 640]\ncalibration: r.yaml\n",
+               {"line 6", "source.aravis.roi", "[x, y, width, height]"});
   expect_error(cams + "    roi: [0, 0, 640, 0]\ncalibration: r.yaml\n", {"source.aravis.roi", "both"});
   expect_error(cams + "    fps: 100\n    pairing_window_ms: 6\ncalibration: r.yaml\n",
                {"line 7", "source.aravis.pairing_window_ms", "half the frame period"});
-  expect_error(cams + "    stall_timeout_ms: 10\ncalibration: r.yaml\n", {"source.aravis.stall_timeout_ms", "frame period"});
+  expect_error(cams + "    stall_timeout_ms: 10\ncalibration: r.yaml\n",
+               {"source.aravis.stall_timeout_ms", "frame period"});
   expect_error(cams + "    packet_size: 100\ncalibration: r.yaml\n", {"source.aravis.packet_size", "576"});
   expect_error(cams + "    buffers: many\ncalibration: r.yaml\n", {"source.aravis.buffers", "an integer"});
 }

@@ -1,14 +1,14 @@
 // CRC-8/SAE-J1850 against the CRC catalogue's check value, the AUTOSAR CRC library's published
 // examples, and a plain bit-by-bit implementation of the definition.
-#include <gtest/gtest.h>
-
 #include <cstdint>
 #include <random>
 #include <span>
 #include <string_view>
 #include <vector>
 
-#include "drivers/crc8.hpp"
+#include <gtest/gtest.h>
+
+#include "can/crc8.hpp"
 
 namespace rutd {
 namespace {

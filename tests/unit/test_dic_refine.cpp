@@ -99,7 +99,7 @@ const cv::Size kStrip(320, 48);
 TEST(DicRefine, RemovesSgbmPixelLockingBias) {
   auto sgbm = make_cpu_engine(EngineKind::Sgbm);
   DicWorkspace ws;
-  DicParams params;
+  DicConfig params;
   double worst_sgbm = 0.0, worst_dic = 0.0;
   std::printf("   d_true   sgbm_bias  sgbm_rms   dic_bias   dic_rms  refined  rejected  iters\n");
   for (int tenth = 1; tenth <= 9; ++tenth) {
@@ -110,8 +110,8 @@ TEST(DicRefine, RemovesSgbmPixelLockingBias) {
     const Error before = error_of(disparity, d_true, 0.0, 32);
     const DicStats stats = refine_disparity_dic(pair.left, pair.right, disparity, params, ws);
     const Error after = error_of(disparity, d_true, 0.0, 32);
-    std::printf("  %7.2f  %+9.4f  %8.4f  %+9.4f  %8.4f  %7d  %8d  %5.2f\n", d_true, before.mean, before.rms,
-                after.mean, after.rms, stats.refined, stats.rejected, stats.mean_iterations);
+    std::printf("  %7.2f  %+9.4f  %8.4f  %+9.4f  %8.4f  %7d  %8d  %5.2f\n", d_true, before.mean, before.rms, after.mean,
+                after.rms, stats.refined, stats.rejected, stats.mean_iterations);
     worst_sgbm = std::max(worst_sgbm, std::abs(before.mean));
     worst_dic = std::max(worst_dic, std::abs(after.mean));
     EXPECT_LT(std::abs(after.mean), 0.02) << "d = " << d_true;
@@ -132,7 +132,7 @@ TEST(DicRefine, FollowsSlopedDisparity) {
   DicWorkspace ws;
   for (bool first_order : {false, true}) {
     cv::Mat disparity = engine.clone();
-    DicParams params;
+    DicConfig params;
     params.first_order = first_order;
     const DicStats stats = refine_disparity_dic(pair.left, pair.right, disparity, params, ws);
     const Error after = error_of(disparity, d0, slope, 64);
@@ -161,7 +161,7 @@ TEST(DicRefine, RejectsLowTexture) {
   }
   cv::Mat disparity(kStrip, CV_32FC1, cv::Scalar(d_true + 0.3));
   DicWorkspace ws;
-  const DicParams params;
+  const DicConfig params;
   const DicStats stats = refine_disparity_dic(pair.left, pair.right, disparity, params, ws);
   int textured = 0, textured_ok = 0, flat = 0, flat_ok = 0;
   for (int y = 0; y < kStrip.height; ++y) {
@@ -188,7 +188,7 @@ TEST(DicRefine, RejectsStartFarFromTheMatch) {
   const Pair pair = render_pair(d_true, 0.0, kStrip, 11);
   cv::Mat disparity(kStrip, CV_32FC1, cv::Scalar(d_true + 5.0));
   DicWorkspace ws;
-  const DicStats stats = refine_disparity_dic(pair.left, pair.right, disparity, DicParams{}, ws);
+  const DicStats stats = refine_disparity_dic(pair.left, pair.right, disparity, DicConfig{}, ws);
   std::printf("start 5 px off: %d refined, %d rejected\n", stats.refined, stats.rejected);
   EXPECT_LT(stats.refined, 0.02 * kStrip.area());
 }
@@ -197,7 +197,7 @@ TEST(DicRefine, StepKeepsOnlyTheGrid) {
   const double d_true = 21.25;
   const Pair pair = render_pair(d_true, 0.0, kStrip, 13);
   cv::Mat disparity(kStrip, CV_32FC1, cv::Scalar(d_true - 0.4));
-  DicParams params;
+  DicConfig params;
   params.step = 4;
   DicWorkspace ws;
   const DicStats stats = refine_disparity_dic(pair.left, pair.right, disparity, params, ws);

@@ -1,8 +1,7 @@
 // FrameRecorder: pairs offered on the acquisition thread come back byte-identical through
-// RecordingReader; a full queue drops and counts (offer never waits for the disk); a failing disk
+// ReplaySource; a full queue drops and counts (offer never waits for the disk); a failing disk
 // (file-size limit, folder gone) stops the recording with a message naming the file and the OS reason,
 // and everything listed before the failure still replays.
-#include <gtest/gtest.h>
 #include <sys/resource.h>
 #include <sys/stat.h>
 #include <sys/wait.h>
@@ -20,9 +19,11 @@
 #include <thread>
 #include <vector>
 
-#include "drivers/frame_recorder.hpp"
-#include "drivers/input_error.hpp"
-#include "drivers/recording.hpp"
+#include <gtest/gtest.h>
+
+#include "core/input_error.hpp"
+#include "recording/frame_recorder.hpp"
+#include "recording/recording.hpp"
 #include "test_support.hpp"
 
 namespace rutd {
@@ -59,13 +60,16 @@ void fill_pair(StereoFrame& frame, std::uint64_t seq, int type, bool noisy = tru
     cv::Mat& m = side == 0 ? frame.left : frame.right;
     for (int y = 0; y < size.height; ++y) {
       for (int x = 0; x < size.width; ++x) {
-        std::uint64_t h = (seq * 1'000'003u + static_cast<std::uint64_t>(side) * 7919u + static_cast<std::uint64_t>(y) * 131u +
-                           static_cast<std::uint64_t>(x)) *
+        std::uint64_t h = (seq * 1'000'003u + static_cast<std::uint64_t>(side) * 7919u +
+                           static_cast<std::uint64_t>(y) * 131u + static_cast<std::uint64_t>(x)) *
                           0x9E3779B97F4A7C15ull;
         h ^= h >> 29;
-        const std::uint64_t v = noisy ? h : static_cast<std::uint64_t>(x + y) + seq * 3 + static_cast<std::uint64_t>(side);
-        if (type == CV_16UC1) m.at<std::uint16_t>(y, x) = static_cast<std::uint16_t>(noisy ? v : v * 257);
-        else m.at<std::uint8_t>(y, x) = static_cast<std::uint8_t>(v);
+        const std::uint64_t v =
+            noisy ? h : static_cast<std::uint64_t>(x + y) + seq * 3 + static_cast<std::uint64_t>(side);
+        if (type == CV_16UC1)
+          m.at<std::uint16_t>(y, x) = static_cast<std::uint16_t>(noisy ? v : v * 257);
+        else
+          m.at<std::uint8_t>(y, x) = static_cast<std::uint8_t>(v);
       }
     }
   }
@@ -80,7 +84,7 @@ bool same_image(const cv::Mat& a, const cv::Mat& b) {
 
 // Reads the whole recording; every pair must read Ok. Returns the pairs' seqs in order.
 std::vector<std::uint64_t> replay_all(const std::string& dir, int type, bool noisy = true) {
-  RecordingReader reader(dir);
+  ReplaySource reader(dir);
   EXPECT_EQ(reader.calibration().image_size, kSize);
   std::vector<std::uint64_t> seqs;
   StereoFrame got, want;
@@ -146,7 +150,7 @@ TEST(FrameRecorder, FileSizeLimitStopsRecordingWithFileTooLargeAndKeepsListedPai
     if (setrlimit(RLIMIT_FSIZE, &rl) != 0) _exit(3);
     std::string report;
     {
-      FrameRecorderOptions options;
+      FrameRecorderConfig options;
       options.capacity = 128;  // more than kOffers: nothing can be dropped
       options.writer.sync_to_disk = false;
       FrameRecorder recorder(dir, test_calibration(), options);
@@ -210,7 +214,7 @@ TEST(FrameRecorder, OfferedPairsComeBackByteIdentical) {
     const test::TempDir tmp;
     const std::string dir = (tmp.path() / "rec").string();
     constexpr std::uint64_t kPairs = 20;
-    FrameRecorderOptions options;
+    FrameRecorderConfig options;
     options.capacity = kPairs;  // a slot per pair: nothing can be dropped however slow the disk
     FrameRecorder recorder(dir, test_calibration(), options);
     EXPECT_EQ(recorder.directory(), dir);
@@ -233,7 +237,7 @@ TEST(FrameRecorder, OfferedPairsComeBackByteIdentical) {
     ASSERT_EQ(seqs.size(), kPairs);
     for (std::uint64_t i = 0; i < kPairs; ++i) EXPECT_EQ(seqs[i], 100 + 2 * i);
     // The calibration was copied in.
-    const StereoCalibration c = RecordingReader(dir).calibration();
+    const StereoCalibration c = ReplaySource(dir).calibration();
     EXPECT_EQ(cv::norm(cv::Mat(c.M1), cv::Mat(test_calibration().M1), cv::NORM_INF), 0.0);
     EXPECT_EQ(cv::norm(cv::Mat(c.T), cv::Mat(test_calibration().T), cv::NORM_INF), 0.0);
 
@@ -246,7 +250,7 @@ TEST(FrameRecorder, OfferedPairsComeBackByteIdentical) {
 TEST(FrameRecorder, FullQueueDropsAndCountsAndWhatIsWrittenReplays) {
   const test::TempDir tmp;
   const std::string dir = (tmp.path() / "rec").string();
-  FrameRecorderOptions options;
+  FrameRecorderConfig options;
   options.capacity = 1;  // the writer holds the only slot while it encodes and syncs
   FrameRecorder recorder(dir, test_calibration(), options);
   // 300 offers of a pair that is already in memory take microseconds each; the writer needs a PNG
@@ -277,7 +281,7 @@ TEST(FrameRecorder, FullQueueDropsAndCountsAndWhatIsWrittenReplays) {
 TEST(FrameRecorder, FolderGoneStopsRecordingOnceAndListedPairsStayComplete) {
   const test::TempDir tmp;
   const fs::path dir = tmp.path() / "rec";
-  FrameRecorderOptions options;
+  FrameRecorderConfig options;
   options.capacity = 16;
   options.writer.sync_to_disk = false;
   FrameRecorder recorder(dir.string(), test_calibration(), options);
@@ -323,13 +327,13 @@ TEST(FrameRecorder, FolderGoneStopsRecordingOnceAndListedPairsStayComplete) {
   EXPECT_EQ(count_files(dir / "right"), 5u);
 }
 
-TEST(FrameRecorder, RecordingSourceForwardsAndRecordsEveryOkPair) {
+TEST(FrameRecorder, RecordingTeeForwardsAndRecordsEveryOkPair) {
   // A scripted source: Ok, Timeout, Error, Ok, Ok, EndOfStream.
   class Script final : public FrameSource {
    public:
     SourceStatus next(StereoFrame& frame) override {
       static const SourceStatus order[] = {SourceStatus::Ok, SourceStatus::Timeout, SourceStatus::Error,
-                                           SourceStatus::Ok, SourceStatus::Ok, SourceStatus::EndOfStream};
+                                           SourceStatus::Ok, SourceStatus::Ok,      SourceStatus::EndOfStream};
       const SourceStatus s = order[std::min<std::size_t>(calls_++, std::size(order) - 1)];
       error_ = s == SourceStatus::Error ? "camera lost" : "";
       if (s == SourceStatus::Ok) fill_pair(frame, seq_++, CV_8UC1);
@@ -347,10 +351,10 @@ TEST(FrameRecorder, RecordingSourceForwardsAndRecordsEveryOkPair) {
   const test::TempDir tmp;
   const std::string dir = (tmp.path() / "rec").string();
   auto script = std::make_unique<Script>();
-  FrameRecorderOptions options;
+  FrameRecorderConfig options;
   options.capacity = 4;
   FrameRecorder recorder(dir, script->calibration(), options);
-  RecordingSource source(std::move(script), recorder);
+  RecordingTee source(std::move(script), recorder);
   EXPECT_EQ(source.calibration().image_size, kSize);
   StereoFrame frame;
   std::vector<SourceStatus> got;
@@ -380,7 +384,7 @@ TEST(FrameRecorder, ExistingRecordingIsRefusedNotOverwritten) {
   EXPECT_THROW((void)FrameRecorder(dir, test_calibration()), InputError);
   EXPECT_EQ(test::read_text(fs::path(dir) / "frames.csv"), before);
   EXPECT_EQ(replay_all(dir, CV_8UC1), (std::vector<std::uint64_t>{7}));
-  FrameRecorderOptions bad;
+  FrameRecorderConfig bad;
   bad.capacity = 0;
   EXPECT_THROW((void)FrameRecorder((tmp.path() / "other").string(), test_calibration(), bad), std::invalid_argument);
   EXPECT_FALSE(fs::exists(tmp.path() / "other"));

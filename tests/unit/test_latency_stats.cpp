@@ -1,12 +1,12 @@
 // LatencyHistogram against a sorted-array reference: nearest-rank percentiles of the same samples.
-#include <gtest/gtest.h>
-
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <random>
 #include <thread>
 #include <vector>
+
+#include <gtest/gtest.h>
 
 #include "pipeline/latency_stats.hpp"
 

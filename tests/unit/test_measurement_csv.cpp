@@ -1,6 +1,5 @@
 // Measurement CSV: the exact text of known rows (hand-written expectations), field validity per status,
 // locale independence, flushing, a write -> read round trip, and one error per malformed input.
-#include <gtest/gtest.h>
 #include <unistd.h>
 
 #include <cmath>
@@ -11,8 +10,10 @@
 #include <sstream>
 #include <string>
 
-#include "drivers/input_error.hpp"
-#include "drivers/measurement_csv.hpp"
+#include <gtest/gtest.h>
+
+#include "core/input_error.hpp"
+#include "recording/measurement_csv.hpp"
 
 namespace rutd {
 namespace {
@@ -67,16 +68,15 @@ TEST(MeasurementCsvTest, RowsHoldOnlyTheFieldsValidForTheirStatus) {
       {7, 7, tiny_negative},
       {8, 8, not_finite},
   });
-  EXPECT_EQ(text,
-            kHeader + "\n" +
-                "1,1700000000000000000,OK,42.123,311.000,8.500,0.000,9876.543,-2.250,-15.000,0.8765,1.0000\n"
-                "2,1700000000033333333,NO_RUT,,,,,,-2.250,,0.8765,1.0000\n"
-                "3,3,TOO_FEW_POINTS,,,,,,,,0.8765,1.0000\n"
-                "4,4,NO_GROUND,,,,,,,,0.8765,1.0000\n"
-                "5,5,RUT_AT_EDGE,,,,,,-2.250,,0.8765,1.0000\n"
-                "6,-6,NO_MEASUREMENT,,,,,,,,,\n"
-                "7,7,OK,42.123,311.000,8.500,0.000,9876.543,-2.250,0.000,0.8765,1.0000\n"
-                "8,8,OK,42.123,,8.500,0.000,,-2.250,-15.000,0.8765,1.0000\n");
+  EXPECT_EQ(text, kHeader + "\n" +
+                      "1,1700000000000000000,OK,42.123,311.000,8.500,0.000,9876.543,-2.250,-15.000,0.8765,1.0000\n"
+                      "2,1700000000033333333,NO_RUT,,,,,,-2.250,,0.8765,1.0000\n"
+                      "3,3,TOO_FEW_POINTS,,,,,,,,0.8765,1.0000\n"
+                      "4,4,NO_GROUND,,,,,,,,0.8765,1.0000\n"
+                      "5,5,RUT_AT_EDGE,,,,,,-2.250,,0.8765,1.0000\n"
+                      "6,-6,NO_MEASUREMENT,,,,,,,,,\n"
+                      "7,7,OK,42.123,311.000,8.500,0.000,9876.543,-2.250,0.000,0.8765,1.0000\n"
+                      "8,8,OK,42.123,,8.500,0.000,,-2.250,-15.000,0.8765,1.0000\n");
 }
 
 TEST(MeasurementCsvTest, FieldValidityTable) {
@@ -102,9 +102,8 @@ TEST(MeasurementCsvTest, IgnoresTheStreamLocale) {
   out.imbue(std::locale(out.getloc(), new CommaDecimal));
   MeasurementCsvWriter writer(out);
   ASSERT_TRUE(writer.write(1234567, 1234567, full(RutStatus::Ok)));
-  EXPECT_EQ(
-      out.str(),
-      kHeader + "\n1234567,1234567,OK,42.123,311.000,8.500,0.000,9876.543,-2.250,-15.000,0.8765,1.0000\n");
+  EXPECT_EQ(out.str(),
+            kHeader + "\n1234567,1234567,OK,42.123,311.000,8.500,0.000,9876.543,-2.250,-15.000,0.8765,1.0000\n");
 }
 
 class SyncCounter : public std::stringbuf {
@@ -139,9 +138,8 @@ TEST(MeasurementCsvTest, FailedStreamIsReported) {
 class MeasurementCsvFileTest : public ::testing::Test {
  protected:
   void SetUp() override {
-    path_ = (fs::temp_directory_path() /
-             ("rutd_measurements_" + std::to_string(::getpid()) + "_" +
-              ::testing::UnitTest::GetInstance()->current_test_info()->name() + ".csv"))
+    path_ = (fs::temp_directory_path() / ("rutd_measurements_" + std::to_string(::getpid()) + "_" +
+                                          ::testing::UnitTest::GetInstance()->current_test_info()->name() + ".csv"))
                 .string();
   }
   void TearDown() override { fs::remove(path_); }
@@ -230,14 +228,13 @@ TEST_F(MeasurementCsvFileTest, MalformedInputNamesFileAndLine) {
   expect_error("", "line 1", "missing header (file is empty)");
   expect_error("seq,t_ns,status\n", "line 1", "header is 'seq,t_ns,status' but must be '" + kHeader + "'");
   expect_error(kHeader + "\n" + ok_row + "2,20,OK,1,2\n" + ok_row, "line 3", "expected 12 fields, found 5");
-  expect_error(kHeader + "\n" + "-1,10,NO_MEASUREMENT,,,,,,,,,\n", "line 2",
-               "seq '-1' is not a non-negative integer");
+  expect_error(kHeader + "\n" + "-1,10,NO_MEASUREMENT,,,,,,,,,\n", "line 2", "seq '-1' is not a non-negative integer");
   expect_error(kHeader + "\n" + "1,ten,NO_MEASUREMENT,,,,,,,,,\n", "line 2", "t_ns 'ten' is not an integer");
   expect_error(kHeader + "\n" + "1,10,FINE,,,,,,,,,\n", "line 2", "unknown status 'FINE'");
-  expect_error(kHeader + "\n" + "1,10,OK,4x,311.000,8.500,0.000,9876.543,-2.250,-15.000,0.8765,1.0000\n",
-               "line 2", "rut_depth_mm '4x' is not a finite number");
-  expect_error(kHeader + "\n" + "1,10,OK,42.1,311.000,8.500,0.000,9876.543,-2.250,-15.000,0.8765,inf\n",
-               "line 2", "valid_fraction 'inf' is not a finite number");
+  expect_error(kHeader + "\n" + "1,10,OK,4x,311.000,8.500,0.000,9876.543,-2.250,-15.000,0.8765,1.0000\n", "line 2",
+               "rut_depth_mm '4x' is not a finite number");
+  expect_error(kHeader + "\n" + "1,10,OK,42.1,311.000,8.500,0.000,9876.543,-2.250,-15.000,0.8765,inf\n", "line 2",
+               "valid_fraction 'inf' is not a finite number");
   expect_error(kHeader + "\n" + "1,10,NO_RUT,42.1,,,,,-2.250,,0.8765,1.0000\n", "line 2",
                "rut_depth_mm holds a value but must be empty when status is NO_RUT");
 }

@@ -1,8 +1,6 @@
 // Camera pixel conversion against independent truths: Bayer images are mosaicked by hand from a colour
 // image following GenICam's pattern definitions and must come back close to OpenCV's BGR-to-grey of that
 // image (and clearly further from it under any other pattern); mono images must be copied byte for byte.
-#include <gtest/gtest.h>
-
 #include <array>
 #include <chrono>
 #include <cmath>
@@ -14,18 +12,18 @@
 #include <string_view>
 #include <vector>
 
+#include <gtest/gtest.h>
 #include <opencv2/imgproc.hpp>
 
-#include "drivers/pixel_convert.hpp"
+#include "pixel_convert.hpp"
 
 namespace rutd {
 namespace {
 
 constexpr std::array kBayerLayouts{CameraPixelLayout::BayerRG8, CameraPixelLayout::BayerGR8,
                                    CameraPixelLayout::BayerBG8, CameraPixelLayout::BayerGB8};
-constexpr std::array kAllLayouts{CameraPixelLayout::Mono8,    CameraPixelLayout::Mono10,
-                                 CameraPixelLayout::Mono12,   CameraPixelLayout::Mono16,
-                                 CameraPixelLayout::BayerRG8, CameraPixelLayout::BayerGR8,
+constexpr std::array kAllLayouts{CameraPixelLayout::Mono8,    CameraPixelLayout::Mono10,   CameraPixelLayout::Mono12,
+                                 CameraPixelLayout::Mono16,   CameraPixelLayout::BayerRG8, CameraPixelLayout::BayerGR8,
                                  CameraPixelLayout::BayerBG8, CameraPixelLayout::BayerGB8};
 
 // GenICam PFNC: the colour of each pixel of the top-left 2x2 tile, read row by row.
@@ -129,8 +127,8 @@ TEST(PixelConvert, Mono8IsAByteExactCopyWithOddWidth) {
 TEST(PixelConvert, SixteenBitLayoutsKeepTheCameraValues) {
   constexpr int kWidth = 641;
   constexpr int kHeight = 3;
-  const std::array<std::pair<CameraPixelLayout, unsigned>, 3> cases{{
-      {CameraPixelLayout::Mono10, 1023U}, {CameraPixelLayout::Mono12, 4095U}, {CameraPixelLayout::Mono16, 65535U}}};
+  const std::array<std::pair<CameraPixelLayout, unsigned>, 3> cases{
+      {{CameraPixelLayout::Mono10, 1023U}, {CameraPixelLayout::Mono12, 4095U}, {CameraPixelLayout::Mono16, 65535U}}};
   std::mt19937 rng(11);
   for (const auto& [layout, max_value] : cases) {
     // The camera's little-endian words, written byte by byte.
@@ -177,9 +175,9 @@ TEST(PixelConvert, ReusesTheOutputBuffer) {
   std::vector<std::uint8_t> mono16(320 * 240 * 2);
   for (std::size_t i = 0; i < mono16.size(); ++i) mono16[i] = static_cast<std::uint8_t>(i * 31);
 
-  const std::array<std::pair<CameraPixelLayout, const void*>, 3> cases{{
-      {CameraPixelLayout::Mono8, bayer.data}, {CameraPixelLayout::BayerGB8, bayer.data},
-      {CameraPixelLayout::Mono16, mono16.data()}}};
+  const std::array<std::pair<CameraPixelLayout, const void*>, 3> cases{{{CameraPixelLayout::Mono8, bayer.data},
+                                                                        {CameraPixelLayout::BayerGB8, bayer.data},
+                                                                        {CameraPixelLayout::Mono16, mono16.data()}}};
   for (const auto& [layout, data] : cases) {
     const std::size_t bytes = 320 * 240 * bytes_per_pixel(layout);
     cv::Mat out(10, 10, CV_32FC1);  // wrong size and type: replaced on the first call
@@ -227,8 +225,8 @@ TEST(PixelConvert, LayoutNamesFollowGenicam) {
     EXPECT_EQ(pixel_layout_from_name(name), layout) << name;
     EXPECT_EQ(pixel_layout_name(layout), name);
   }
-  for (const std::string_view other : {"", "mono8", "Mono8 ", "Mono10p", "Mono12Packed", "BayerRG10", "RGB8",
-                                       "BayerRGGB8"}) {
+  for (const std::string_view other :
+       {"", "mono8", "Mono8 ", "Mono10p", "Mono12Packed", "BayerRG10", "RGB8", "BayerRGGB8"}) {
     EXPECT_FALSE(pixel_layout_from_name(other).has_value()) << "'" << other << "'";
   }
   EXPECT_EQ(bytes_per_pixel(CameraPixelLayout::Mono8), 1U);
@@ -249,8 +247,8 @@ TEST(PixelConvert, PrintsConversionCost) {
       ASSERT_TRUE(convert_to_grey(layout, bayer.data, frame_bytes(bayer), 640, 480, out));
     }
     const double us = std::chrono::duration<double, std::micro>(std::chrono::steady_clock::now() - start).count();
-    std::printf("%s 640x480 to grey: %.1f us per frame (mean of %d)\n", pixel_layout_name(layout).data(),
-                us / kFrames, kFrames);
+    std::printf("%s 640x480 to grey: %.1f us per frame (mean of %d)\n", pixel_layout_name(layout).data(), us / kFrames,
+                kFrames);
   }
 }
 

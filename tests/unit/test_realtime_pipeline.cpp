@@ -1,8 +1,6 @@
 // The real-time pipeline with fake stages (sleep, count, gate, fail) and with the real measurer's stages:
 // freshest frame wins, acquisition never waits, stale frames refused, bounded stop, draining at end of
 // stream, every acquired frame accounted for, status at a fixed rate, and no heap allocation per frame.
-#include <gtest/gtest.h>
-
 #include <algorithm>
 #include <atomic>
 #include <chrono>
@@ -16,9 +14,11 @@
 #include <thread>
 #include <vector>
 
-#include "drivers/synthetic_renderer.hpp"
-#include "drivers/cycling_source.hpp"
+#include <gtest/gtest.h>
+
 #include "pipeline/realtime_pipeline.hpp"
+#include "synthetic/cycling_source.hpp"
+#include "synthetic/synthetic_renderer.hpp"
 
 // ---- Allocation counter -------------------------------------------------------------------------
 // Counts heap allocations made by any thread while g_counting is set. Without ThreadSanitizer the
@@ -113,11 +113,11 @@ bool eventually(F done, milliseconds limit = 10s) {
 // ---- Fakes ---------------------------------------------------------------------------------------
 
 struct SourceOptions {
-  microseconds period{0};                                   // 0: as fast as asked
+  microseconds period{0};                                            // 0: as fast as asked
   std::uint64_t frames = std::numeric_limits<std::uint64_t>::max();  // then EndOfStream
-  std::uint64_t old_every = 0;       // every n-th pair is stamped one second old
-  bool timeouts_only = false;        // a camera that never delivers
-  std::counting_semaphore<>* gate = nullptr;  // one permit per pair; Timeout after 5 ms without
+  std::uint64_t old_every = 0;                                       // every n-th pair is stamped one second old
+  bool timeouts_only = false;                                        // a camera that never delivers
+  std::counting_semaphore<>* gate = nullptr;                         // one permit per pair; Timeout after 5 ms without
 };
 
 // Tiny pairs on this machine's CLOCK_MONOTONIC. Records when acquisition called next().
@@ -168,8 +168,8 @@ class FakeSource final : public FrameSource {
 
 struct StageOptions {
   microseconds rectify{0}, match{0}, extract{0};
-  std::uint64_t reject_every = 0;  // rectify refuses every n-th frame
-  std::uint64_t throw_every = 0;   // match throws on every n-th frame
+  std::uint64_t reject_every = 0;                   // rectify refuses every n-th frame
+  std::uint64_t throw_every = 0;                    // match throws on every n-th frame
   std::counting_semaphore<>* match_gate = nullptr;  // the first match waits for a permit
 };
 
@@ -428,7 +428,7 @@ TEST(RealtimePipeline, EndOfStreamDrainsAndAccountsForEveryFrameWhenFreshestWins
   EXPECT_EQ(sink.mismatches.load(), 0u);
   EXPECT_TRUE(std::is_sorted(sink.seqs.begin(), sink.seqs.end()));
   for (std::uint64_t seq : sink.seqs) {
-    EXPECT_NE(seq % 7, 6u);   // rejected by rectify
+    EXPECT_NE(seq % 7, 6u);    // rejected by rectify
     EXPECT_NE(seq % 11, 10u);  // match threw
   }
 }
@@ -448,8 +448,8 @@ TEST(RealtimePipeline, StatusGoesOutAtItsRateWithoutAnyFrameAndFlagsTheMissingCa
   std::this_thread::sleep_for(500ms);
   pipeline.stop();
   const PipelineStats s = pipeline.stats();
-  std::printf("status frames in 500 ms at 20 ms: %llu, log calls: %d\n",
-              static_cast<unsigned long long>(s.status_sent), logs.load());
+  std::printf("status frames in 500 ms at 20 ms: %llu, log calls: %d\n", static_cast<unsigned long long>(s.status_sent),
+              logs.load());
   EXPECT_GE(s.status_sent, 5u);  // ~25 expected; generous for a loaded machine
   EXPECT_EQ(s.status_sent, sink.statuses.load());
   EXPECT_LE(s.status_sent, 26u);  // never a burst beyond the period
@@ -566,8 +566,8 @@ struct RealRig {
     cv::setNumThreads(0);
 #endif
   }
-  static SynthParams params() {
-    SynthParams p;
+  static SynthConfig params() {
+    SynthConfig p;
     p.rig.image_size = {320, 240};
     return p;
   }
@@ -613,10 +613,12 @@ TEST(RealtimePipeline, WhichRealStagesAllocatePerFrame) {
   g_counting.store(false);
   std::printf("of which the %s engine alone: %.2f allocations per call\n",
               std::string(to_string(rig.config.engine)).c_str(), double(g_allocations.load()) / kFrames);
-  std::printf("real stages, allocations per frame over %d frames (320x240, %s, DIC %s): rectify %.2f, "
-              "match %.2f, extract %.2f; measurement status %s depth %.2f mm\n",
-              kFrames, std::string(to_string(rig.config.engine)).c_str(), rig.config.dic ? "on" : "off",
-              double(r) / kFrames, double(m) / kFrames, double(e) / kFrames, std::string(to_string(w.measurement.status)).c_str(), w.measurement.depth_mm);
+  std::printf(
+      "real stages, allocations per frame over %d frames (320x240, %s, DIC %s): rectify %.2f, "
+      "match %.2f, extract %.2f; measurement status %s depth %.2f mm\n",
+      kFrames, std::string(to_string(rig.config.engine)).c_str(), rig.config.dic ? "on" : "off", double(r) / kFrames,
+      double(m) / kFrames, double(e) / kFrames, std::string(to_string(w.measurement.status)).c_str(),
+      w.measurement.depth_mm);
   EXPECT_EQ(w.measurement.status, RutStatus::Ok);  // the allocation-free path is the full one
   EXPECT_EQ(r, 0u);
   EXPECT_EQ(e, 0u);

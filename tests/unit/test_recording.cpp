@@ -1,7 +1,6 @@
 // Recording folder: bit-exact round trips of 8-bit and 16-bit pairs, one clear error per bad input
 // (naming file and line, and the image where one is involved), and crash safety: a recording cut at
 // any byte of frames.csv, or a writer process killed at a random moment, replays every listed pair.
-#include <gtest/gtest.h>
 #include <signal.h>
 #include <spawn.h>
 #include <sys/wait.h>
@@ -14,9 +13,6 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
-#include <opencv2/calib3d.hpp>
-#include <opencv2/imgcodecs.hpp>
-#include <opencv2/imgproc.hpp>
 #include <optional>
 #include <random>
 #include <sstream>
@@ -24,8 +20,13 @@
 #include <thread>
 #include <vector>
 
-#include "drivers/input_error.hpp"
-#include "drivers/recording.hpp"
+#include <gtest/gtest.h>
+#include <opencv2/calib3d.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "core/input_error.hpp"
+#include "recording/recording.hpp"
 
 extern char** environ;
 
@@ -105,12 +106,11 @@ TEST_F(RecordingTest, RoundTripIsBitExactFor8And16Bit) {
     fs::remove_all(dir_);
     {
       RecordingWriter writer(dir_.string(), test_calibration());
-      for (std::uint64_t seq : {3, 4, 7, 8, 20})
-        ASSERT_TRUE(writer.append(make_pair(seq, type))) << writer.error();
+      for (std::uint64_t seq : {3, 4, 7, 8, 20}) ASSERT_TRUE(writer.append(make_pair(seq, type))) << writer.error();
       EXPECT_EQ(writer.pairs_written(), 5u);
       EXPECT_TRUE(writer.error().empty());
     }
-    RecordingReader reader(dir_.string());
+    ReplaySource reader(dir_.string());
     EXPECT_EQ(reader.directory(), dir_.string());
     EXPECT_EQ(reader.calibration().image_size, kSize);
     EXPECT_EQ(cv::norm(reader.calibration().T - test_calibration().T), 0.0);
@@ -230,7 +230,7 @@ TEST_F(RecordingTest, WriteFailureIsReportedAndRecordingGoesOn) {
   ASSERT_TRUE(writer.append(make_pair(2, CV_8UC1))) << writer.error();
   EXPECT_EQ(writer.pairs_written(), 2u);
 
-  RecordingReader reader(dir_.string());
+  ReplaySource reader(dir_.string());
   StereoFrame frame;
   ASSERT_EQ(reader.next(frame), SourceStatus::Ok);
   EXPECT_EQ(frame.seq, 0u);
@@ -245,7 +245,7 @@ TEST_F(RecordingTest, WriteFailureIsReportedAndRecordingGoesOn) {
 void expect_open_error(const std::string& dir, const std::string& file, const std::string& field,
                        const std::string& message) {
   try {
-    RecordingReader reader(dir);
+    ReplaySource reader(dir);
     ADD_FAILURE() << "no error";
   } catch (const InputError& e) {
     EXPECT_EQ(e.file(), file);
@@ -273,8 +273,7 @@ TEST_F(RecordingTest, OpenErrorsNameFileAndField) {
   write_text(frames(), "");
   expect_open_error(dir, frames(), "line 1", "missing header (file is empty)");
   write_text(frames(), "seq,t,left,right\n0,0,left/00000000.png,right/00000000.png\n");
-  expect_open_error(dir, frames(), "line 1",
-                    "header is 'seq,t,left,right' but must be 'seq,t_ns,left,right'");
+  expect_open_error(dir, frames(), "line 1", "header is 'seq,t,left,right' but must be 'seq,t_ns,left,right'");
 }
 
 // ---------------------------------------------------------------------------------------------------
@@ -287,7 +286,7 @@ class ReplayErrorTest : public RecordingTest {
     record(dir_, 4);
   }
   // Replaces the lines after the header and opens the recording.
-  RecordingReader& replay(const std::string& lines) {
+  ReplaySource& replay(const std::string& lines) {
     write_text(frames(), "seq,t_ns,left,right\n" + lines);
     reader_.emplace(dir_.string());
     return *reader_;
@@ -321,7 +320,7 @@ class ReplayErrorTest : public RecordingTest {
   }
   std::string line(std::uint64_t seq) const { return line(seq, make_pair(seq, CV_8UC1).t_ns); }
 
-  std::optional<RecordingReader> reader_;
+  std::optional<ReplaySource> reader_;
 };
 
 TEST_F(ReplayErrorTest, MalformedLinesAreErrorsAndReplayGoesOn) {
@@ -344,8 +343,7 @@ TEST_F(ReplayErrorTest, MissingImageNamesImageAndLine) {
   fs::remove(dir_ / "right/00000001.png");
   replay(line(0) + line(1) + line(2));
   expect_pair(0);
-  expect_error(3,
-               "cannot read right image " + dir_.string() + "/right/00000001.png: No such file or directory");
+  expect_error(3, "cannot read right image " + dir_.string() + "/right/00000001.png: No such file or directory");
   expect_pair(2);
   expect_end(false);
 }
@@ -354,8 +352,7 @@ TEST_F(ReplayErrorTest, MissingImageOnCompleteLastLineIsAnError) {
   fs::remove(dir_ / "left/00000003.png");
   replay(line(0) + line(3));
   expect_pair(0);
-  expect_error(3,
-               "cannot read left image " + dir_.string() + "/left/00000003.png: No such file or directory");
+  expect_error(3, "cannot read left image " + dir_.string() + "/left/00000003.png: No such file or directory");
   expect_end(false);
 }
 
@@ -467,7 +464,7 @@ TEST_F(RecordingTest, EveryCutOfFramesCsvReplaysTheCompletePairs) {
   for (std::size_t cut = header_size; cut <= full.size(); ++cut) {
     SCOPED_TRACE(cut);
     write_text(frames(), full.substr(0, cut));
-    RecordingReader reader(dir_.string());
+    ReplaySource reader(dir_.string());
     std::size_t expected = 0;
     while (expected < line_ends.size() && line_ends[expected] <= cut) ++expected;
     StereoFrame frame;
@@ -517,15 +514,14 @@ TEST_F(RecordingTest, KilledWriterLeavesAReplayableRecording) {
     ASSERT_EQ(::posix_spawn(&child, "/proc/self/exe", nullptr, nullptr, argv, envp.data()), 0);
     // Kill once the child has recorded for a random while.
     const auto until = std::chrono::steady_clock::now() + std::chrono::milliseconds(200 + rng() % 300);
-    while (std::chrono::steady_clock::now() < until)
-      std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    while (std::chrono::steady_clock::now() < until) std::this_thread::sleep_for(std::chrono::milliseconds(5));
     ::kill(child, SIGKILL);
     int wstatus = 0;
     ::waitpid(child, &wstatus, 0);
     ASSERT_TRUE(WIFSIGNALED(wstatus)) << "child exited by itself with " << WEXITSTATUS(wstatus);
 
     if (!fs::exists(dir_ / "frames.csv")) continue;  // killed before the recording existed
-    RecordingReader reader(dir_.string());
+    ReplaySource reader(dir_.string());
     StereoFrame frame;
     std::uint64_t replayed = 0;
     SourceStatus status;
@@ -547,8 +543,7 @@ TEST_F(RecordingTest, KilledWriterLeavesAReplayableRecording) {
 TEST_F(RecordingTest, PrintsThroughputAtCameraResolution) {
   const cv::Size size(1936, 1216);
   // A textured scene rather than noise: PNG cost depends on content. Tile a real stereo image.
-  const cv::Mat scene =
-      cv::imread(std::string(RUTD_TEST_DATA_DIR) + "/middlebury/cone/im2.png", cv::IMREAD_GRAYSCALE);
+  const cv::Mat scene = cv::imread(std::string(RUTD_TEST_DATA_DIR) + "/middlebury/cone/im2.png", cv::IMREAD_GRAYSCALE);
   ASSERT_FALSE(scene.empty());
   cv::Mat tiled;
   cv::repeat(scene, size.height / scene.rows + 1, size.width / scene.cols + 1, tiled);
@@ -567,13 +562,12 @@ TEST_F(RecordingTest, PrintsThroughputAtCameraResolution) {
     }
     const double write_ms =
         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count() / kPairs;
-    RecordingReader reader(dir_.string());
+    ReplaySource reader(dir_.string());
     StereoFrame read;
     const auto read_start = std::chrono::steady_clock::now();
     for (int i = 0; i < kPairs; ++i) ASSERT_EQ(reader.next(read), SourceStatus::Ok);
     const double read_ms =
-        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - read_start).count() /
-        kPairs;
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - read_start).count() / kPairs;
     const auto png_bytes = fs::file_size(dir_ / "left/00000000.png");
     std::cout << size.width << "x" << size.height << " 8-bit, sync_to_disk=" << sync << ": write " << write_ms
               << " ms/pair, read " << read_ms << " ms/pair, PNG " << png_bytes / 1024 << " KiB/image\n";

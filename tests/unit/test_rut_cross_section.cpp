@@ -33,7 +33,7 @@ cv::Mat plane_strip(int rows, int cols, double x_start, double spacing, double z
 TEST(ReduceToCrossSection, PlaneGivesPlaneOnABinAlignedGrid) {
   const double slope = -0.1;
   const cv::Mat xyz = plane_strip(8, 500, -101.3, 0.37, 1500.0, slope);
-  RutParams params;
+  RutConfig params;
   params.bin_mm = 2.0;
   CrossSection c;
   reduce_to_cross_section(xyz, params, c);
@@ -64,7 +64,7 @@ TEST(ReduceToCrossSection, TrimmedMeanRejectsOutliers) {
     xyz.at<cv::Vec3f>(row(rng), j)[2] -= 60.0f;  // and one the other way (may hit the same row)
   }
   CrossSection c;
-  reduce_to_cross_section(xyz, RutParams{}, c);
+  reduce_to_cross_section(xyz, RutConfig{}, c);
   ASSERT_EQ(c.z_mm.size(), 200u);
   for (std::size_t b = 0; b < c.z_mm.size(); ++b) {
     EXPECT_EQ(c.count[b], 8);
@@ -79,7 +79,7 @@ TEST(ReduceToCrossSection, InvalidPointsAreSkipped) {
   for (int j = 0; j < 50; ++j) xyz.at<cv::Vec3f>(2, j)[2] = -5.0f;  // behind the camera
   for (int r = 0; r < 4; ++r) xyz.at<cv::Vec3f>(r, 99) = cv::Vec3f(kNaNf, kNaNf, kNaNf);
   CrossSection c;
-  reduce_to_cross_section(xyz, RutParams{}, c);
+  reduce_to_cross_section(xyz, RutConfig{}, c);
   ASSERT_EQ(c.z_mm.size(), 99u);  // the column at X = 99 is entirely invalid
   EXPECT_EQ(c.count[0], 1);
   EXPECT_EQ(c.count[60], 4);
@@ -88,21 +88,21 @@ TEST(ReduceToCrossSection, InvalidPointsAreSkipped) {
 
 TEST(ReduceToCrossSection, DegenerateInputsGiveNoBins) {
   CrossSection c;
-  reduce_to_cross_section(cv::Mat(), RutParams{}, c);
+  reduce_to_cross_section(cv::Mat(), RutConfig{}, c);
   EXPECT_TRUE(c.z_mm.empty());
-  reduce_to_cross_section(cv::Mat(4, 4, CV_32FC1, cv::Scalar(1.0)), RutParams{}, c);
+  reduce_to_cross_section(cv::Mat(4, 4, CV_32FC1, cv::Scalar(1.0)), RutConfig{}, c);
   EXPECT_TRUE(c.z_mm.empty());
-  reduce_to_cross_section(cv::Mat(4, 4, CV_32FC3, cv::Scalar(kNaNf, kNaNf, kNaNf)), RutParams{}, c);
+  reduce_to_cross_section(cv::Mat(4, 4, CV_32FC3, cv::Scalar(kNaNf, kNaNf, kNaNf)), RutConfig{}, c);
   EXPECT_TRUE(c.z_mm.empty());
   RutWorkspace ws;
-  EXPECT_EQ(extract_rut(c, RutParams{}, ws).status, RutStatus::TooFewPoints);
+  EXPECT_EQ(extract_rut(c, RutConfig{}, ws).status, RutStatus::TooFewPoints);
 }
 
 TEST(ReduceToCrossSection, FarOutlierCannotBlowUpTheGrid) {
   cv::Mat xyz = plane_strip(4, 600, -300.0, 1.0, 1500.0, 0.0);
   xyz.at<cv::Vec3f>(0, 0) = cv::Vec3f(1e7f, 0.0f, 1500.0f);  // absurd reprojection
   CrossSection c;
-  reduce_to_cross_section(xyz, RutParams{}, c);
+  reduce_to_cross_section(xyz, RutConfig{}, c);
   EXPECT_LE(c.z_mm.size(), 4001u);
   EXPECT_LE(c.x0_mm, -299.0);  // the real data are kept
 }
@@ -110,9 +110,9 @@ TEST(ReduceToCrossSection, FarOutlierCannotBlowUpTheGrid) {
 TEST(ReduceToCrossSection, SteadyStateDoesNotReallocate) {
   const cv::Mat xyz = plane_strip(16, 640, -320.0, 1.0, 1500.0, 0.05);
   CrossSection c;
-  reduce_to_cross_section(xyz, RutParams{}, c);
+  reduce_to_cross_section(xyz, RutConfig{}, c);
   const void* ptrs[] = {c.z_mm.data(), c.count.data(), c.scratch_z.data(), c.scratch_offset.data()};
-  reduce_to_cross_section(xyz, RutParams{}, c);
+  reduce_to_cross_section(xyz, RutConfig{}, c);
   EXPECT_EQ(ptrs[0], c.z_mm.data());
   EXPECT_EQ(ptrs[1], c.count.data());
   EXPECT_EQ(ptrs[2], c.scratch_z.data());
@@ -136,9 +136,9 @@ TEST_P(StripEndToEnd, MeasuresTheRut) {
     xyz.at<cv::Vec3f>(row(rng), col(rng))[2] += (i % 2 ? 40.0f : -40.0f);  // ~3 % mismatches
   }
   CrossSection c;
-  reduce_to_cross_section(xyz, RutParams{}, c);
+  reduce_to_cross_section(xyz, RutConfig{}, c);
   RutWorkspace ws;
-  const RutMeasurement m = extract_rut(c, RutParams{}, ws);
+  const RutMeasurement m = extract_rut(c, RutConfig{}, ws);
   ASSERT_EQ(m.status, RutStatus::Ok) << to_string(m.status);
   EXPECT_NEAR(m.depth_mm, s.depth, 0.2);
   EXPECT_NEAR(m.width_mm, s.width(), 2.0);
@@ -155,10 +155,10 @@ INSTANTIATE_TEST_SUITE_P(Roll, StripEndToEnd, ::testing::Values(0.0, 8.0, -3.0))
 TEST(ReduceToCrossSection, PrintsTimePerStrip) {
   const cv::Mat xyz = test::make_strip(RutShape{}, View{}, -320.0, 1.0, 640, 32, 1.0, 3);
   CrossSection c;
-  reduce_to_cross_section(xyz, RutParams{}, c);
+  reduce_to_cross_section(xyz, RutConfig{}, c);
   constexpr int kRuns = 100;
   const auto t0 = std::chrono::steady_clock::now();
-  for (int i = 0; i < kRuns; ++i) reduce_to_cross_section(xyz, RutParams{}, c);
+  for (int i = 0; i < kRuns; ++i) reduce_to_cross_section(xyz, RutConfig{}, c);
   const auto t1 = std::chrono::steady_clock::now();
   std::printf("reduce_to_cross_section, 640 x 32 points: %.1f us per strip\n",
               std::chrono::duration<double, std::micro>(t1 - t0).count() / kRuns);

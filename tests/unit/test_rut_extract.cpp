@@ -21,7 +21,7 @@ using test::View;
 constexpr double kX0 = -320.0;  // 640 bins of 1 mm centred on the camera axis
 constexpr int kBins = 640;
 
-RutMeasurement measure(const CrossSection& c, const RutParams& params = {}) {
+RutMeasurement measure(const CrossSection& c, const RutConfig& params = {}) {
   RutWorkspace ws;
   return extract_rut(c, params, ws);
 }
@@ -121,13 +121,13 @@ TEST(ExtractRut, NoiseDoesNotBiasDepth) {
     }
     naive.add(deepest - s.depth);
   }
-  std::printf("noise 0.5 mm/bin, %d seeds, error mean / rms:\n"
-              "  depth %+.4f / %.4f mm (deepest bin %+.3f / %.3f mm)\n"
-              "  width %+.3f / %.3f mm, area %+.1f / %.1f mm2 (of %.0f), piles %+.3f / %.3f mm,"
-              " slope %+.4f / %.4f deg\n",
-              kSeeds, depth.mean(), depth.rms(), naive.mean(), naive.rms(), width.mean(),
-              width.rms(), area.mean(), area.rms(), s.area(), pile.mean(), pile.rms(),
-              slope.mean(), slope.rms());
+  std::printf(
+      "noise 0.5 mm/bin, %d seeds, error mean / rms:\n"
+      "  depth %+.4f / %.4f mm (deepest bin %+.3f / %.3f mm)\n"
+      "  width %+.3f / %.3f mm, area %+.1f / %.1f mm2 (of %.0f), piles %+.3f / %.3f mm,"
+      " slope %+.4f / %.4f deg\n",
+      kSeeds, depth.mean(), depth.rms(), naive.mean(), naive.rms(), width.mean(), width.rms(), area.mean(), area.rms(),
+      s.area(), pile.mean(), pile.rms(), slope.mean(), slope.rms());
   EXPECT_LT(std::abs(depth.mean()), 0.05);
   EXPECT_LT(depth.rms(), 0.15);
   EXPECT_LT(std::abs(pile.mean()), 0.15);
@@ -147,8 +147,7 @@ TEST(ExtractRut, NoiseOnRoundBottom) {
     ASSERT_EQ(m.status, RutStatus::Ok) << "seed " << seed;
     depth.add(m.depth_mm - s.depth);
   }
-  std::printf("round bottom, noise 0.5 mm/bin: depth error mean %+.3f mm, rms %.3f mm\n",
-              depth.mean(), depth.rms());
+  std::printf("round bottom, noise 0.5 mm/bin: depth error mean %+.3f mm, rms %.3f mm\n", depth.mean(), depth.rms());
   EXPECT_LT(std::abs(depth.mean()), 0.2);
   EXPECT_LT(depth.rms(), 0.35);
 }
@@ -260,7 +259,7 @@ TEST(ExtractRut, WidthOutOfRangeIsNoRut) {
   EXPECT_EQ(m2.status, RutStatus::NoRut);
   EXPECT_NEAR(m2.width_mm, 450.0, 1.0);
 
-  RutParams params;  // the same rut is fine once the range admits it
+  RutConfig params;  // the same rut is fine once the range admits it
   params.max_rut_width_mm = 500.0;
   EXPECT_EQ(measure(make_section(wide, View{}, -600.0, 1200, 1.0), params).status, RutStatus::Ok);
 }
@@ -321,8 +320,8 @@ TEST(ExtractRut, NarrowViewWithCorrelatedNoise) {
       CrossSection c = make_section(s, v, x0, n, 1.0);
       add_correlated_noise(c, 0.4, 10, seed);
       const RutMeasurement m = measure(c);
-      ASSERT_EQ(m.status, RutStatus::Ok) << "ground " << g[0] << "/" << g[1] << " mm, seed " << seed
-                                         << ": " << to_string(m.status);
+      ASSERT_EQ(m.status, RutStatus::Ok) << "ground " << g[0] << "/" << g[1] << " mm, seed " << seed << ": "
+                                         << to_string(m.status);
       depth.add(m.depth_mm - s.depth);
       width.add(m.width_mm - s.width());
       slope.add(m.ground_slope_deg - v.slope_deg());
@@ -335,10 +334,10 @@ TEST(ExtractRut, NarrowViewWithCorrelatedNoise) {
       EXPECT_NEAR(m.right_pile_mm, s.right_pile, 1.5) << "seed " << seed;
       max_depth_err = std::max(max_depth_err, std::abs(m.depth_mm - s.depth));
     }
-    std::printf("narrow view, ground %.0f/%.0f mm, correlated noise 0.4 mm: depth %+.3f / %.3f mm,"
-                " (max %.3f), width %+.2f / %.2f mm, slope %+.3f / %.3f deg (mean / rms)\n",
-                g[0], g[1], depth.mean(), depth.rms(), max_depth_err, width.mean(), width.rms(),
-                slope.mean(), slope.rms());
+    std::printf(
+        "narrow view, ground %.0f/%.0f mm, correlated noise 0.4 mm: depth %+.3f / %.3f mm,"
+        " (max %.3f), width %+.2f / %.2f mm, slope %+.3f / %.3f deg (mean / rms)\n",
+        g[0], g[1], depth.mean(), depth.rms(), max_depth_err, width.mean(), width.rms(), slope.mean(), slope.rms());
     EXPECT_LT(std::abs(depth.mean()), 0.15);
     EXPECT_LT(depth.rms(), 0.4);
   }
@@ -348,12 +347,11 @@ TEST(ExtractRut, SteadyStateDoesNotReallocate) {
   const RutShape s;
   const CrossSection c = make_section(s, View{}, kX0, kBins, 1.0, 0.5, 2);
   RutWorkspace ws;
-  extract_rut(c, RutParams{}, ws);
-  const std::vector<std::vector<double>*> all = {&ws.smooth, &ws.slope, &ws.h_raw, &ws.h_fit,
-                                                 &ws.a, &ws.b, &ws.c};
+  extract_rut(c, RutConfig{}, ws);
+  const std::vector<std::vector<double>*> all = {&ws.smooth, &ws.slope, &ws.h_raw, &ws.h_fit, &ws.a, &ws.b, &ws.c};
   std::vector<const double*> before;
   for (auto* v : all) before.push_back(v->data());
-  const RutMeasurement again = extract_rut(c, RutParams{}, ws);
+  const RutMeasurement again = extract_rut(c, RutConfig{}, ws);
   EXPECT_EQ(again.status, RutStatus::Ok);
   for (std::size_t i = 0; i < all.size(); ++i) EXPECT_EQ(all[i]->data(), before[i]) << i;
 }
@@ -361,11 +359,11 @@ TEST(ExtractRut, SteadyStateDoesNotReallocate) {
 TEST(ExtractRut, PrintsTimePer640BinSection) {
   const CrossSection c = make_section(RutShape{}, View{}, kX0, kBins, 1.0, 0.5, 9);
   RutWorkspace ws;
-  extract_rut(c, RutParams{}, ws);
+  extract_rut(c, RutConfig{}, ws);
   constexpr int kRuns = 200;
   double sink = 0.0;
   const auto t0 = std::chrono::steady_clock::now();
-  for (int i = 0; i < kRuns; ++i) sink += extract_rut(c, RutParams{}, ws).depth_mm;
+  for (int i = 0; i < kRuns; ++i) sink += extract_rut(c, RutConfig{}, ws).depth_mm;
   const auto t1 = std::chrono::steady_clock::now();
   const double us = std::chrono::duration<double, std::micro>(t1 - t0).count() / kRuns;
   std::printf("extract_rut, %d bins: %.1f us per call (depth %.3f)\n", kBins, us, sink / kRuns);

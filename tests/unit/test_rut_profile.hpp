@@ -76,8 +76,8 @@ inline double z_at_x(const RutShape& s, const View& v, double x) {
 }
 
 // Cross-section sampled at X = x0 + i dx, i < n, with Gaussian noise of `sigma` mm per bin.
-inline CrossSection make_section(const RutShape& s, const View& v, double x0, int n, double dx,
-                                 double sigma = 0.0, unsigned seed = 1) {
+inline CrossSection make_section(const RutShape& s, const View& v, double x0, int n, double dx, double sigma = 0.0,
+                                 unsigned seed = 1) {
   std::mt19937 rng(seed);
   std::normal_distribution<double> noise(0.0, sigma > 0.0 ? sigma : 1.0);
   CrossSection c;
@@ -92,8 +92,8 @@ inline CrossSection make_section(const RutShape& s, const View& v, double x0, in
 
 // Strip of rows x cols 3D points (CV_32FC3), columns at u = u0 + j du, row r at Y = r mm, Gaussian
 // noise of `sigma` mm along Z on every point.
-inline cv::Mat make_strip(const RutShape& s, const View& v, double u0, double du, int cols, int rows,
-                          double sigma, unsigned seed) {
+inline cv::Mat make_strip(const RutShape& s, const View& v, double u0, double du, int cols, int rows, double sigma,
+                          unsigned seed) {
   std::mt19937 rng(seed);
   std::normal_distribution<double> noise(0.0, sigma > 0.0 ? sigma : 1.0);
   cv::Mat xyz(rows, cols, CV_32FC3);

@@ -110,7 +110,8 @@ TEST(StereoGeometry, PointsLandOnOneRowAndReprojectTo3d) {
   EXPECT_LT(worst, 1e-3);
 }
 
-// Gaussian spots (sigma 2.5 px, wide enough that sampling and interpolation keep their centroid) on a dark background at the given raw positions, 12-bit in 16 bits.
+// Gaussian spots (sigma 2.5 px, wide enough that sampling and interpolation keep their centroid) on a dark background
+// at the given raw positions, 12-bit in 16 bits.
 cv::Mat spots(cv::Size size, const std::vector<cv::Point2d>& at) {
   cv::Mat image(size, CV_16UC1, cv::Scalar(320));
   for (const auto& p : at) {
@@ -128,7 +129,8 @@ cv::Mat spots(cv::Size size, const std::vector<cv::Point2d>& at) {
 // thresholded centroid is itself biased toward whole pixels.
 cv::Point2d centroid(const cv::Mat& strip, cv::Point2d near, double background) {
   double sw = 0, sx = 0, sy = 0;
-  for (int y = std::max(0, static_cast<int>(near.y) - 11); y <= std::min(strip.rows - 1, static_cast<int>(near.y) + 11); ++y) {
+  for (int y = std::max(0, static_cast<int>(near.y) - 11); y <= std::min(strip.rows - 1, static_cast<int>(near.y) + 11);
+       ++y) {
     for (int x = static_cast<int>(near.x) - 11; x <= static_cast<int>(near.x) + 11; ++x) {
       const double w = strip.at<std::uint8_t>(y, x) - background;
       sw += w;

@@ -1,7 +1,5 @@
 // StereoPairer against a brute-force reference matcher (every left/right couple within the window, over
 // the frames that were not dropped), and SkewHistogram against nearest-rank percentiles of a sorted array.
-#include <gtest/gtest.h>
-
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
@@ -11,8 +9,10 @@
 #include <utility>
 #include <vector>
 
-#include "drivers/input_error.hpp"
-#include "drivers/stereo_pairing.hpp"
+#include <gtest/gtest.h>
+
+#include "camera/stereo_pairing.hpp"
+#include "core/input_error.hpp"
 
 namespace rutd {
 namespace {
@@ -21,7 +21,7 @@ constexpr std::int64_t kPeriodNs = 33'333'333;  // 30 fps
 constexpr std::int64_t kWindowNs = 2'000'000;
 constexpr std::uint32_t kRightBufferBase = 1'000'000;
 
-struct Collector final : PairingSink {
+struct Collector final : PairingReceiver {
   std::vector<FramePair> pairs;
   std::vector<std::pair<FrameDescriptor, DropReason>> drops;
   void on_pair(const FramePair& p) override { pairs.push_back(p); }
@@ -107,7 +107,8 @@ Streams make_streams(std::mt19937_64& rng, int n, double keep, std::int64_t jitt
     const auto id = static_cast<std::uint64_t>(i);
     if (u(rng) < keep) s.left.push_back(frame(CameraSide::Left, id, t + jitter(rng), static_cast<std::uint32_t>(i)));
     if (u(rng) < keep)
-      s.right.push_back(frame(CameraSide::Right, id, t + jitter(rng), kRightBufferBase + static_cast<std::uint32_t>(i)));
+      s.right.push_back(
+          frame(CameraSide::Right, id, t + jitter(rng), kRightBufferBase + static_cast<std::uint32_t>(i)));
   }
   return s;
 }
@@ -337,9 +338,7 @@ TEST(StereoPairing, TriggeredModeRejectsTimeCoincidentFrameWithWrongId) {
 TEST(StereoPairing, ClockResetFlushesAndStartsNewEpoch) {
   std::vector<FrameDescriptor> order;
   const int n = 120;
-  auto time = [](int i, bool reset) {
-    return reset ? 7'000'000 + i * kPeriodNs : 900'000'000'000 + i * kPeriodNs;
-  };
+  auto time = [](int i, bool reset) { return reset ? 7'000'000 + i * kPeriodNs : 900'000'000'000 + i * kPeriodNs; };
   for (int i = 0; i < n; ++i) {
     const auto b = static_cast<std::uint32_t>(i);
     order.push_back(frame(CameraSide::Left, b, time(i, i >= 50), b));
@@ -357,8 +356,8 @@ TEST(StereoPairing, ClockResetFlushesAndStartsNewEpoch) {
   EXPECT_EQ(s.right.dropped(), 3u);
   std::set<std::uint32_t> dropped;
   for (const auto& d : c.drops) dropped.insert(d.first.buffer);
-  EXPECT_EQ(dropped, (std::set<std::uint32_t>{50, 51, 52, kRightBufferBase + 50, kRightBufferBase + 51,
-                                              kRightBufferBase + 52}));
+  EXPECT_EQ(dropped,
+            (std::set<std::uint32_t>{50, 51, 52, kRightBufferBase + 50, kRightBufferBase + 51, kRightBufferBase + 52}));
   for (const auto& p : c.pairs) {
     EXPECT_EQ(p.right.buffer, p.left.buffer + kRightBufferBase);
     EXPECT_EQ(p.epoch, p.left.buffer < 50 ? 0u : 2u);
@@ -418,8 +417,8 @@ TEST(SkewHistogram, PercentilesMatchSortedReference) {
   EXPECT_EQ(h.percentile(0.5), 0);
   std::vector<std::int64_t> samples;
   for (int i = 0; i < 20000; ++i) {
-    const std::int64_t v = (i % 10 == 0) ? uniform(rng)
-                                         : std::clamp<std::int64_t>(std::llround(normal(rng)), -kWindowNs, kWindowNs);
+    const std::int64_t v =
+        (i % 10 == 0) ? uniform(rng) : std::clamp<std::int64_t>(std::llround(normal(rng)), -kWindowNs, kWindowNs);
     samples.push_back(v);
     h.record(v);
   }

@@ -1,16 +1,15 @@
 // Geometry of the synthetic renderer against independent references: OpenCV's projection model, the
 // analytic ground plane, a brute-force first-hit search, and OpenCV's rectification.
-#include <gtest/gtest.h>
-
 #include <cmath>
 #include <cstdio>
 #include <numbers>
 #include <random>
 #include <vector>
 
+#include <gtest/gtest.h>
 #include <opencv2/calib3d.hpp>
 
-#include "drivers/synthetic_renderer.hpp"
+#include "synthetic/synthetic_renderer.hpp"
 
 namespace rutd {
 namespace {
@@ -18,8 +17,8 @@ namespace {
 constexpr double kPi = std::numbers::pi;
 constexpr double kDeg = kPi / 180;
 
-SynthParams small_params() {
-  SynthParams p;
+SynthConfig small_params() {
+  SynthConfig p;
   p.rig.image_size = {320, 240};
   return p;
 }
@@ -74,7 +73,7 @@ TEST(SyntheticGeometry, PixelRaysReprojectOntoTheirPixels) {
 }
 
 TEST(SyntheticGeometry, FlatGroundHitIsAtCameraHeight) {
-  SynthParams p = small_params();
+  SynthConfig p = small_params();
   p.rut.lateral_offset_mm = 5000;  // out of view: flat ground only
   const SyntheticRenderer renderer(p);
   for (double x : {-0.8, -0.3, 0.0, 0.25, 0.7}) {
@@ -88,7 +87,7 @@ TEST(SyntheticGeometry, FlatGroundHitIsAtCameraHeight) {
 }
 
 TEST(SyntheticGeometry, FlatGroundUnderRollAndPitchFollowsTheRigConvention) {
-  SynthParams p = small_params();
+  SynthConfig p = small_params();
   p.rut.lateral_offset_mm = 5000;
   p.rig.roll_deg = 6;
   p.rig.pitch_deg = -4;
@@ -100,8 +99,8 @@ TEST(SyntheticGeometry, FlatGroundUnderRollAndPitchFollowsTheRigConvention) {
   const cv::Matx33d Rx(1, 0, 0, 0, std::cos(q), -std::sin(q), 0, std::sin(q), std::cos(q));
   const cv::Matx33d world_from_left = Ry * Rx * cv::Matx33d(1, 0, 0, 0, -1, 0, 0, 0, -1);
   const std::uint64_t index = 3;
-  const cv::Vec3d centre = cv::Vec3d(0, index * p.speed_mm_s / p.fps, p.rig.height_mm) +
-                           Ry * Rx * cv::Vec3d(-p.rig.baseline_mm / 2, 0, 0);
+  const cv::Vec3d centre =
+      cv::Vec3d(0, index * p.speed_mm_s / p.fps, p.rig.height_mm) + Ry * Rx * cv::Vec3d(-p.rig.baseline_mm / 2, 0, 0);
   EXPECT_LT(cv::norm(renderer.camera_centre(Camera::Left, index) - centre), 1e-9);
   for (double x : {-0.7, 0.0, 0.6}) {
     for (double y : {-0.5, 0.4}) {
@@ -142,7 +141,7 @@ double brute_force_hit(const RutShape& shape, const cv::Vec3d& o, const cv::Vec3
 }
 
 // Random rays and rays aimed just below each pile crest, against brute_force_hit.
-void expect_first_hits_match_brute_force(const SynthParams& p) {
+void expect_first_hits_match_brute_force(const SynthConfig& p) {
   const SyntheticRenderer renderer(p);
   const std::uint64_t index = 11;
   const cv::Vec3d o = renderer.camera_centre(Camera::Left, index);
@@ -156,7 +155,8 @@ void expect_first_hits_match_brute_force(const SynthParams& p) {
   for (double side : {-1.0, 1.0}) {
     const double pile = side < 0 ? p.rut.pile_left_mm : p.rut.pile_right_mm;
     for (double y : {o[1] - 40, o[1], o[1] + 40}) {
-      const double xc = p.rut.lateral_offset_mm + p.rut.wander_amplitude_mm * std::sin(2 * kPi * y / p.rut.wander_wavelength_mm);
+      const double xc =
+          p.rut.lateral_offset_mm + p.rut.wander_amplitude_mm * std::sin(2 * kPi * y / p.rut.wander_wavelength_mm);
       const double crest = xc + side * (p.rut.width_mm / 2 + p.rut.pile_width_mm / 2);
       for (double dx : {-2.0, 0.0, 2.0, 4.0}) {
         for (double dz : {0.5, 2.0, 6.0}) {
@@ -182,8 +182,8 @@ void expect_first_hits_match_brute_force(const SynthParams& p) {
   EXPECT_LT(worst, 0.01);
 }
 
-SynthParams occluding_params() {
-  SynthParams p = small_params();
+SynthConfig occluding_params() {
+  SynthConfig p = small_params();
   p.rig.roll_deg = 8;
   p.rut.pile_left_mm = 35;  // tall, narrow piles occlude the walls behind them
   p.rut.pile_right_mm = 25;
@@ -193,7 +193,7 @@ SynthParams occluding_params() {
 }
 
 TEST(SyntheticGeometry, FirstHitMatchesBruteForceWithOcclusionWanderAndTread) {
-  SynthParams p = occluding_params();  // the general terrain: marched
+  SynthConfig p = occluding_params();  // the general terrain: marched
   p.rut.wander_amplitude_mm = 30;
   p.rut.wander_wavelength_mm = 700;
   p.rut.tread = true;
@@ -201,7 +201,7 @@ TEST(SyntheticGeometry, FirstHitMatchesBruteForceWithOcclusionWanderAndTread) {
 }
 
 TEST(SyntheticGeometry, FirstHitMatchesBruteForceOnAStraightRutWithOcclusion) {
-  SynthParams p = occluding_params();  // a straight rut without tread: solved piece by piece
+  SynthConfig p = occluding_params();  // a straight rut without tread: solved piece by piece
   expect_first_hits_match_brute_force(p);
   p.rig.roll_deg = -5, p.rig.pitch_deg = 12;
   p.rut.bottom_width_mm = 0;  // no flat bottom: the walls meet
@@ -212,7 +212,7 @@ TEST(SyntheticGeometry, FirstHitMatchesBruteForceOnAStraightRutWithOcclusion) {
 
 TEST(SyntheticGeometry, StraightDownTheRutAxis) {
   // Rays in a plane of constant world x (d_x = 0 exactly) meet the profile at that x.
-  SynthParams p = small_params();
+  SynthConfig p = small_params();
   p.rig.baseline_mm = 100;  // left camera at x = -50
   const SyntheticRenderer renderer(p);
   const RutTerrain terrain(p.rut, p.rut.depth_mm);
@@ -224,7 +224,7 @@ TEST(SyntheticGeometry, StraightDownTheRutAxis) {
 }
 
 TEST(SyntheticGeometry, CalibrationMatchesTheRig) {
-  const SynthParams p = small_params();
+  const SynthConfig p = small_params();
   const SyntheticRenderer renderer(p);
   const StereoCalibration& c = renderer.calibration();
   EXPECT_EQ(c.image_size, p.rig.image_size);
@@ -267,23 +267,23 @@ TEST(SyntheticGeometry, MisalignedRowsLineUpOnlyAfterRectification) {
 
 TEST(SyntheticGeometry, ImpossibleParametersAreRejected) {
   const auto rejects = [](auto change) {
-    SynthParams p = small_params();
+    SynthConfig p = small_params();
     change(p);
     EXPECT_THROW(SyntheticRenderer{p}, std::invalid_argument);
   };
-  rejects([](SynthParams& p) { p.rig.baseline_mm = 0; });
-  rejects([](SynthParams& p) { p.rig.height_mm = 15; });
-  rejects([](SynthParams& p) { p.rig.hfov_deg = 170; });
-  rejects([](SynthParams& p) { p.rig.image_size = {8, 8}; });
-  rejects([](SynthParams& p) { p.rig.distortion_left[0] = -0.9; });  // folds over inside the image
-  rejects([](SynthParams& p) { p.rut.bottom_width_mm = p.rut.width_mm; });
-  rejects([](SynthParams& p) { p.rut.pile_left_mm = -1; });
-  rejects([](SynthParams& p) { p.rut.depth_mm = NAN; });
-  rejects([](SynthParams& p) { p.fps = 0; });
-  rejects([](SynthParams& p) { p.supersample = 0; });
-  rejects([](SynthParams& p) { p.bit_depth = 12; });
-  rejects([](SynthParams& p) { p.depth_profile = {{5, 30}, {5, 40}}; });
-  rejects([](SynthParams& p) { p.depth_profile = {{0, 30}, {9, 0}}; });
+  rejects([](SynthConfig& p) { p.rig.baseline_mm = 0; });
+  rejects([](SynthConfig& p) { p.rig.height_mm = 15; });
+  rejects([](SynthConfig& p) { p.rig.hfov_deg = 170; });
+  rejects([](SynthConfig& p) { p.rig.image_size = {8, 8}; });
+  rejects([](SynthConfig& p) { p.rig.distortion_left[0] = -0.9; });  // folds over inside the image
+  rejects([](SynthConfig& p) { p.rut.bottom_width_mm = p.rut.width_mm; });
+  rejects([](SynthConfig& p) { p.rut.pile_left_mm = -1; });
+  rejects([](SynthConfig& p) { p.rut.depth_mm = NAN; });
+  rejects([](SynthConfig& p) { p.fps = 0; });
+  rejects([](SynthConfig& p) { p.supersample = 0; });
+  rejects([](SynthConfig& p) { p.bit_depth = 12; });
+  rejects([](SynthConfig& p) { p.depth_profile = {{5, 30}, {5, 40}}; });
+  rejects([](SynthConfig& p) { p.depth_profile = {{0, 30}, {9, 0}}; });
 }
 
 }  // namespace

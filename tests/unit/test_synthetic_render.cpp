@@ -1,25 +1,24 @@
 // Rendered images of the synthetic renderer and the synthetic source: consistency with the calibration,
 // world-fixed texture, determinism, texture contrast, sizes; render times are printed, not asserted.
-#include <gtest/gtest.h>
-
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <ctime>
 
+#include <gtest/gtest.h>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/core/utility.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "drivers/synthetic_renderer.hpp"
-#include "drivers/synthetic_source.hpp"
+#include "synthetic/synthetic_renderer.hpp"
+#include "synthetic/synthetic_source.hpp"
 
 namespace rutd {
 namespace {
 
-SynthParams quiet_params() {
-  SynthParams p;
+SynthConfig quiet_params() {
+  SynthConfig p;
   p.noise_sigma = 0;
   p.full_well_e = 0;
   return p;
@@ -32,7 +31,7 @@ double mean_abs_diff(const cv::Mat& a, const cv::Mat& b) {
 }
 
 TEST(SyntheticRender, RightImageAgreesWithCalibrationAndGeometry) {
-  const SynthParams p = quiet_params();
+  const SynthConfig p = quiet_params();
   const SyntheticRenderer renderer(p);
   StereoFrame frame;
   renderer.render(2, frame);
@@ -60,7 +59,8 @@ TEST(SyntheticRender, RightImageAgreesWithCalibrationAndGeometry) {
   };
   const double at_zero = error_at(0, 0);
   std::printf("left vs warped right: %.2f grey levels;", at_zero);
-  for (const cv::Point2f o : {cv::Point2f(0.5f, 0), cv::Point2f(-0.5f, 0), cv::Point2f(0, 0.5f), cv::Point2f(0, -0.5f)}) {
+  for (const cv::Point2f o :
+       {cv::Point2f(0.5f, 0), cv::Point2f(-0.5f, 0), cv::Point2f(0, 0.5f), cv::Point2f(0, -0.5f)}) {
     const double off = error_at(o.x, o.y);
     std::printf(" (%+.1f, %+.1f) px off: %.2f;", o.x, o.y, off);
     EXPECT_LT(at_zero, 0.6 * off);
@@ -71,7 +71,7 @@ TEST(SyntheticRender, RightImageAgreesWithCalibrationAndGeometry) {
 TEST(SyntheticRender, TextureIsWorldFixed) {
   // Pinhole cameras over flat ground moving by exactly 7 pixel rows per frame: frame k+1 must be frame
   // k shifted by 7 rows (the camera's Y axis is world -y, so the scene moves to larger v).
-  SynthParams p = quiet_params();
+  SynthConfig p = quiet_params();
   p.rig.image_size = {320, 240};
   p.rig.distortion_left = p.rig.distortion_right = cv::Vec<double, 5>(0, 0, 0, 0, 0);
   p.rut.lateral_offset_mm = 5000;
@@ -96,7 +96,7 @@ TEST(SyntheticRender, TextureIsWorldFixed) {
 // absolute difference between the moved image and the resampled one, in 8-bit grey levels, and the
 // image's standard deviation in `contrast`.
 double half_pixel_resampling_error(Texture texture, int supersample, bool band_limit, double& contrast) {
-  SynthParams p = quiet_params();
+  SynthConfig p = quiet_params();
   p.texture = texture;
   p.rig.image_size = {320, 240};
   p.rig.hfov_deg = 42;  // 0.84 mm per pixel at 350 mm, as a 640 px wide image at the default 75 degrees
@@ -133,13 +133,14 @@ TEST(SyntheticRender, BandLimitedTextureAntiAliases) {
     const double filtered_2x2 = half_pixel_resampling_error(texture, 2, true, contrast_2x2);
     const double point = half_pixel_resampling_error(texture, 1, false, contrast_point);
     const double point_3x3 = half_pixel_resampling_error(texture, 3, false, contrast_3x3);
-    std::printf("%-5s half-pixel resampling error, grey levels (image std): band-limited 1x1 %.2f (%.1f), "
-                "2x2 %.2f (%.1f); point-sampled 1x1 %.2f (%.1f), 3x3 %.2f (%.1f)\n",
-                std::string(to_string(texture)).c_str(), filtered, contrast, filtered_2x2, contrast_2x2, point,
-                contrast_point, point_3x3, contrast_3x3);
-    EXPECT_LT(filtered, 0.5 * point);        // aliasing shows up as resampling error...
-    EXPECT_LT(filtered, point_3x3);          // ...which 3x3 point samples reduce less than band-limiting
-    EXPECT_LT(filtered, 0.15 * contrast);    // and is small against the contrast (3x3 point: 0.18)
+    std::printf(
+        "%-5s half-pixel resampling error, grey levels (image std): band-limited 1x1 %.2f (%.1f), "
+        "2x2 %.2f (%.1f); point-sampled 1x1 %.2f (%.1f), 3x3 %.2f (%.1f)\n",
+        std::string(to_string(texture)).c_str(), filtered, contrast, filtered_2x2, contrast_2x2, point, contrast_point,
+        point_3x3, contrast_3x3);
+    EXPECT_LT(filtered, 0.5 * point);         // aliasing shows up as resampling error...
+    EXPECT_LT(filtered, point_3x3);           // ...which 3x3 point samples reduce less than band-limiting
+    EXPECT_LT(filtered, 0.15 * contrast);     // and is small against the contrast (3x3 point: 0.18)
     EXPECT_GT(contrast, 0.7 * contrast_3x3);  // without washing the texture out
   }
 }
@@ -148,14 +149,14 @@ TEST(SyntheticRender, SilhouettesAreSupersampled) {
   // Tall piles hide part of the wall behind them; the silhouette pixels of a one-sample render differ
   // from a densely supersampled reference, far less so with edge supersampling. Snow: its faint texture
   // keeps the differences away from the silhouettes small.
-  SynthParams p = quiet_params();
+  SynthConfig p = quiet_params();
   p.texture = Texture::Snow;
   p.rig.image_size = {320, 240};
   p.rig.roll_deg = 8;
   p.rut.pile_left_mm = p.rut.pile_right_mm = 35;
   p.rut.pile_width_mm = 30;
   const auto render = [&](int supersample, int edge) {
-    SynthParams q = p;
+    SynthConfig q = p;
     q.supersample = supersample;
     q.edge_supersample = edge;
     StereoFrame frame;
@@ -186,14 +187,15 @@ TEST(SyntheticRender, SilhouettesAreSupersampled) {
   }
   const int count = cv::countNonZero(silhouette);
   const double plain_mean = cv::mean(plain_error, silhouette)[0], edge_mean = cv::mean(edge_error, silhouette)[0];
-  std::printf("%d silhouette pixels: error against 6x6 samples %.1f grey levels with 1 sample, %.1f with 3x3 at edges\n",
-              count, plain_mean, edge_mean);
+  std::printf(
+      "%d silhouette pixels: error against 6x6 samples %.1f grey levels with 1 sample, %.1f with 3x3 at edges\n", count,
+      plain_mean, edge_mean);
   EXPECT_GT(count, 20);  // the scene has silhouettes
   EXPECT_LT(edge_mean, 0.5 * plain_mean);
 }
 
 TEST(SyntheticRender, DeterministicPerSeedFrameAndCamera) {
-  SynthParams p;
+  SynthConfig p;
   p.rig.image_size = {160, 120};
   p.speed_mm_s = 0;  // same scene every frame: only the noise changes
   StereoFrame a, b, c, d;
@@ -214,7 +216,7 @@ TEST(SyntheticRender, DeterministicPerSeedFrameAndCamera) {
 TEST(SyntheticRender, SnowHasMuchLessContrastThanSand) {
   double stddev[4], mean[4];
   for (Texture texture : {Texture::Sand, Texture::Mud, Texture::Snow, Texture::Grass}) {
-    SynthParams p = quiet_params();
+    SynthConfig p = quiet_params();
     p.texture = texture;
     p.rut.lateral_offset_mm = 5000;  // texture only, no shading of walls
     StereoFrame frame;
@@ -234,7 +236,7 @@ TEST(SyntheticRender, SnowHasMuchLessContrastThanSand) {
 TEST(SyntheticRender, RendersBothSizesAndReportsTimes) {
   StereoFrame frame;
   for (const cv::Size size : {cv::Size(640, 480), cv::Size(1280, 1024)}) {
-    SynthParams p;
+    SynthConfig p;
     p.rig.image_size = size;
     const SyntheticRenderer renderer(p);
     double best_ms = 1e30, cpu_ms = 0;  // wall: best of 3 (a shared machine); CPU: the mean
@@ -242,13 +244,14 @@ TEST(SyntheticRender, RendersBothSizesAndReportsTimes) {
       const std::clock_t cpu_start = std::clock();
       const auto start = std::chrono::steady_clock::now();
       renderer.render(1, frame);
-      best_ms = std::min(best_ms, std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count());
+      best_ms = std::min(best_ms,
+                         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count());
       cpu_ms += 1000.0 * static_cast<double>(std::clock() - cpu_start) / CLOCKS_PER_SEC / 3;
     }
     double load[1] = {0};
     getloadavg(load, 1);
-    std::printf("render %dx%d pair: %.0f ms wall (best of 3), %.0f ms CPU, %d threads, load average %.2f\n",
-                size.width, size.height, best_ms, cpu_ms, cv::getNumThreads(), load[0]);
+    std::printf("render %dx%d pair: %.0f ms wall (best of 3), %.0f ms CPU, %d threads, load average %.2f\n", size.width,
+                size.height, best_ms, cpu_ms, cv::getNumThreads(), load[0]);
     EXPECT_EQ(frame.left.size(), size);
     EXPECT_EQ(frame.right.type(), CV_8UC1);
     EXPECT_EQ(frame.seq, 1u);
@@ -258,7 +261,7 @@ TEST(SyntheticRender, RendersBothSizesAndReportsTimes) {
     EXPECT_LT(mean, 200);
   }
   // A frame that already fits is refilled in place.
-  SynthParams p;
+  SynthConfig p;
   p.rig.image_size = {1280, 1024};
   p.supersample = 1;
   const uchar* left = frame.left.data;
@@ -269,7 +272,7 @@ TEST(SyntheticRender, RendersBothSizesAndReportsTimes) {
 }
 
 TEST(SyntheticSource, ProducesTheRenderersFramesInSequence) {
-  SynthParams p;
+  SynthConfig p;
   p.rig.image_size = {96, 64};
   SyntheticSource source(p, {.paced = false, .first_index = 5, .frame_count = 3});
   const SyntheticRenderer reference(p);
@@ -288,7 +291,7 @@ TEST(SyntheticSource, ProducesTheRenderersFramesInSequence) {
 }
 
 TEST(SyntheticSource, PacedFramesCarryIncreasingMonotonicTimes) {
-  SynthParams p;
+  SynthConfig p;
   p.rig.image_size = {64, 48};
   p.fps = 100;
   SyntheticSource source(p);

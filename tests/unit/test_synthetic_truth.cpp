@@ -1,6 +1,6 @@
 // Ground truth of the synthetic renderer: analytic values, the truth against the cross-section that
 // ray casting actually sees, the depth profile, and the truth.csv format.
-#include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <cmath>
 #include <cstdio>
@@ -9,28 +9,27 @@
 #include <numbers>
 #include <vector>
 
-#include <unistd.h>
-
+#include <gtest/gtest.h>
 #include <opencv2/calib3d.hpp>
 
-#include "drivers/input_error.hpp"
-#include "drivers/synthetic_renderer.hpp"
-#include "drivers/truth_csv.hpp"
+#include "core/input_error.hpp"
+#include "synthetic/synthetic_renderer.hpp"
+#include "synthetic/truth_csv.hpp"
 
 namespace rutd {
 namespace {
 
 constexpr double kDeg = std::numbers::pi / 180;
 
-SynthParams aligned_params() {
-  SynthParams p;
+SynthConfig aligned_params() {
+  SynthConfig p;
   p.rig.image_size = {320, 240};
   p.rig.misalign_yaw_deg = p.rig.misalign_pitch_deg = p.rig.misalign_roll_deg = 0;
   return p;
 }
 
 TEST(SyntheticTruth, AnalyticValuesForALevelAlignedRig) {
-  SynthParams p = aligned_params();
+  SynthConfig p = aligned_params();
   p.rut.pile_left_mm = 10;
   p.rut.pile_right_mm = 15;
   p.rut.lateral_offset_mm = 20;
@@ -52,7 +51,7 @@ TEST(SyntheticTruth, AnalyticValuesForALevelAlignedRig) {
 }
 
 TEST(SyntheticTruth, SlopeSignUnderRollMatchesTwoGroundPoints) {
-  SynthParams p = aligned_params();
+  SynthConfig p = aligned_params();
   p.rig.roll_deg = 5;  // right camera lower: ground at larger X is closer
   p.rut.width_mm = 120, p.rut.bottom_width_mm = 60, p.rut.pile_width_mm = 20;
   const SyntheticRenderer renderer(p);
@@ -127,14 +126,14 @@ Measured measure_cross_section(const SyntheticRenderer& renderer, std::uint64_t 
   return out;
 }
 
-void expect_truth_matches_cross_section(const SynthParams& p, std::uint64_t index) {
+void expect_truth_matches_cross_section(const SynthConfig& p, std::uint64_t index) {
   const SyntheticRenderer renderer(p);
   const RutTruth t = renderer.truth(index);
   const Measured m = measure_cross_section(renderer, index, p.rut.width_mm / 2 + p.rut.pile_width_mm + 25);
-  std::printf("truth depth %.4f width %.4f piles %.4f/%.4f area %.2f slope %.4f centre %.4f\n", t.depth_mm,
-              t.width_mm, t.left_pile_mm, t.right_pile_mm, t.area_mm2, t.ground_slope_deg, t.center_x_mm);
-  std::printf("rays  depth %.4f width %.4f piles %.4f/%.4f area %.2f slope %.4f centre %.4f\n", m.depth,
-              m.width, m.left_pile, m.right_pile, m.area, m.slope_deg, m.center_x);
+  std::printf("truth depth %.4f width %.4f piles %.4f/%.4f area %.2f slope %.4f centre %.4f\n", t.depth_mm, t.width_mm,
+              t.left_pile_mm, t.right_pile_mm, t.area_mm2, t.ground_slope_deg, t.center_x_mm);
+  std::printf("rays  depth %.4f width %.4f piles %.4f/%.4f area %.2f slope %.4f centre %.4f\n", m.depth, m.width,
+              m.left_pile, m.right_pile, m.area, m.slope_deg, m.center_x);
   EXPECT_NEAR(m.slope_deg, t.ground_slope_deg, 1e-4);
   EXPECT_NEAR(m.depth, t.depth_mm, 0.01);
   EXPECT_NEAR(m.width, t.width_mm, 0.05);
@@ -145,7 +144,7 @@ void expect_truth_matches_cross_section(const SynthParams& p, std::uint64_t inde
 }
 
 TEST(SyntheticTruth, MatchesRayCastCrossSectionUnderRollPitchAndMisalignment) {
-  SynthParams p;
+  SynthConfig p;
   p.rig.image_size = {320, 240};
   p.rig.roll_deg = 4;
   p.rig.pitch_deg = 8;
@@ -157,7 +156,7 @@ TEST(SyntheticTruth, MatchesRayCastCrossSectionUnderRollPitchAndMisalignment) {
 }
 
 TEST(SyntheticTruth, MatchesRayCastCrossSectionOfAWanderingRut) {
-  SynthParams p;
+  SynthConfig p;
   p.rig.image_size = {320, 240};
   p.rig.roll_deg = -3;
   p.rut.width_mm = 160, p.rut.bottom_width_mm = 60, p.rut.depth_mm = 35, p.rut.pile_width_mm = 30;
@@ -168,11 +167,11 @@ TEST(SyntheticTruth, MatchesRayCastCrossSectionOfAWanderingRut) {
 }
 
 TEST(SyntheticTruth, DepthFollowsThePiecewiseLinearProfile) {
-  SynthParams p = aligned_params();
+  SynthConfig p = aligned_params();
   p.depth_profile = {{10, 20}, {20, 40}, {30, 40}, {50, 10}};
   const SyntheticRenderer renderer(p);
-  const std::vector<std::pair<std::uint64_t, double>> expected = {
-      {0, 20}, {10, 20}, {15, 30}, {19, 38}, {25, 40}, {40, 25}, {45, 17.5}, {50, 10}, {1000, 10}};
+  const std::vector<std::pair<std::uint64_t, double>> expected = {{0, 20},  {10, 20},   {15, 30}, {19, 38},  {25, 40},
+                                                                  {40, 25}, {45, 17.5}, {50, 10}, {1000, 10}};
   for (const auto& [index, depth] : expected) {
     EXPECT_NEAR(renderer.depth_mm(index), depth, 1e-12) << "frame " << index;
     EXPECT_NEAR(renderer.truth(index).depth_mm, depth, 1e-9) << "frame " << index;

@@ -1,10 +1,10 @@
 // The service unit passes systemd's own checker (systemd-analyze verify), pointed at the built rutd.
-#include <gtest/gtest.h>
-
 #include <cstdio>
 #include <fstream>
 #include <regex>
 #include <sstream>
+
+#include <gtest/gtest.h>
 
 #include "test_support.hpp"
 

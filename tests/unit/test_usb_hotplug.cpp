@@ -2,7 +2,7 @@
 // camera, a mass-storage stick, a UVC webcam and near misses), both as the raw bytes a device sends and
 // as libusb's parsed structures; the arrival counter's waiting; and the monitor's start, stop and
 // fallback where the platform gives no hot-plug.
-#include <gtest/gtest.h>
+#include <libusb.h>
 
 #include <chrono>
 #include <cstdint>
@@ -13,9 +13,9 @@
 #include <thread>
 #include <vector>
 
-#include <libusb.h>
+#include <gtest/gtest.h>
 
-#include "drivers/usb_hotplug.hpp"
+#include "usb_hotplug.hpp"
 
 namespace rutd {
 namespace {
@@ -34,8 +34,8 @@ Bytes configuration(std::uint8_t interfaces, const Bytes& body) {
   return out;
 }
 
-Bytes interface(std::uint8_t number, std::uint8_t alt, std::uint8_t endpoints, std::uint8_t cls,
-                std::uint8_t subclass, std::uint8_t protocol) {
+Bytes interface(std::uint8_t number, std::uint8_t alt, std::uint8_t endpoints, std::uint8_t cls, std::uint8_t subclass,
+                std::uint8_t protocol) {
   return {0x09, 0x04, number, alt, endpoints, cls, subclass, protocol, 0x00};
 }
 
@@ -281,8 +281,7 @@ TEST(UsbHotplugMonitor, StartsAndStopsOrSaysWhyNot) {
   std::this_thread::sleep_for(milliseconds(250));  // let the event loop run a few timeouts
   const auto stopping = std::chrono::steady_clock::now();
   monitor.reset();
-  const double stop_ms =
-      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - stopping).count();
+  const double stop_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - stopping).count();
   std::printf("stop: %.2f ms (event timeout 100 ms)\n", stop_ms);
   EXPECT_LT(stop_ms, 2000.0);  // generous: the wake-up makes it near-instant, the timeout bounds it
 }

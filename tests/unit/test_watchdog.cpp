@@ -1,6 +1,5 @@
 // systemd's watchdog is fed only while the pipeline really works: a stage that hangs stops the pings (so
 // systemd restarts rutd), a lost camera does not. Tested against a real sd_notify socket (no systemd).
-#include <gtest/gtest.h>
 #include <sys/socket.h>
 #include <sys/un.h>
 #include <unistd.h>
@@ -12,11 +11,13 @@
 #include <thread>
 #include <utility>
 
+#include <gtest/gtest.h>
+
+#include "daemon/latest_measurement_sink.hpp"
 #include "daemon/service_notifier.hpp"
-#include "daemon/sinks.hpp"
 #include "daemon/supervisor.hpp"
-#include "drivers/cycling_source.hpp"
 #include "pipeline/realtime_pipeline.hpp"
+#include "synthetic/cycling_source.hpp"
 #include "test_support.hpp"
 
 namespace rutd {
@@ -118,7 +119,7 @@ TEST(Watchdog, HungStageStopsThePingsAndRecoveryResumesThem) {
   black.right = black.left.clone();
   CyclingSource source(calibration, {black}, 5ms);
   HangableStages stages;
-  LatestMeasurement latest;
+  LatestMeasurementSink latest;
   PipelineConfig config;
   config.prime_slots = false;
   config.status_period = 20ms;

@@ -1,0 +1,25 @@
+#pragma once
+// One synchronised stereo pair as it leaves a frame source: raw (unrectified) camera images.
+#include <cstdint>
+
+#include <opencv2/core.hpp>
+
+namespace rutd {
+
+// Where t_ns comes from (DESIGN.md, Units and conventions).
+enum class ClockKind : std::uint8_t {
+  Monotonic,  // CLOCK_MONOTONIC of this machine, or a recording's own time base
+  Hardware,   // the cameras' hardware timestamp (PTP or trigger-synchronised)
+};
+
+struct StereoFrame {
+  std::uint64_t seq = 0;  // sequence number from the source, increasing by one per pair produced
+  std::int64_t t_ns = 0;  // capture time of the pair, nanoseconds
+  ClockKind clock = ClockKind::Monotonic;
+  // CV_8UC1 or CV_16UC1, same size and type in both. Sources reuse these buffers when size and type
+  // already fit, so a frame kept in a pool is refilled without allocation.
+  cv::Mat left;
+  cv::Mat right;
+};
+
+}  // namespace rutd

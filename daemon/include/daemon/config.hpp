@@ -1,0 +1,64 @@
+#pragma once
+// rutd's configuration: one YAML file loaded into one typed struct, with defaults, checked at start-up.
+// Every error names the file, the line and the key ("rutd.yaml: line 12, measurement.engine: ...").
+// `rutd run` without --config uses the embedded default (config/rutd.yaml, compiled in), which runs on any
+// machine: the synthetic cameras at their real frame rate, CAN frames on stdout in candump format.
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "camera/aravis_config.hpp"
+#include "can/can_encoder.hpp"
+#include "pipeline/measurer.hpp"
+#include "pipeline/realtime_pipeline.hpp"
+#include "synthetic/synthetic_renderer.hpp"
+
+namespace rutd {
+
+enum class SourceKind { Synthetic, Replay, Aravis };
+
+struct ReplaySourceConfig {
+  std::string dir;    // recording folder
+  bool paced = true;  // play at the recording's own timestamps (false: as fast as it reads)
+  bool loop = false;  // start again at the end
+};
+
+struct SinkConfig {
+  std::string socketcan;                    // CAN interface (e.g. can0); empty: off
+  std::string candump = "-";                // candump -L log file; "-": standard output; empty: off
+  std::string can_interface_name = "can0";  // interface name written in the candump log
+  std::string csv;                          // measurement CSV file; empty: off
+  std::string record;                       // recording folder (raw pairs, DESIGN.md Formats); empty: off
+};
+
+struct LoggingConfig {
+  std::string level = "info";  // trace, debug, info, warn, error
+  double stats_period_s = 10;  // period of the rate and latency log lines
+};
+
+struct RutdConfig {
+  std::string file = "(embedded default)";  // where this came from, for messages
+  SourceKind source = SourceKind::Synthetic;
+  SynthConfig synthetic;
+  ReplaySourceConfig replay;
+  AravisSourceConfig aravis;
+  std::string calibration;  // calibration file; synthetic and replay sources bring their own
+  MeasurerConfig measurement;
+  CanIdConfig can;
+  SinkConfig sinks;
+  // The `pipeline` section: max_frame_age_ms, status_period_ms, cpu_affinity (one CPU per stage thread,
+  // in Stage order; entries past the last stage are ignored) and realtime_priority (SCHED_FIFO of every
+  // stage thread) land in max_frame_age, status_period and threads. The daemon sets the rest.
+  PipelineConfig pipeline;
+  LoggingConfig logging;
+};
+
+// Parses YAML text; `file` is used in messages. Throws InputError(file, "line N, KEY", message) for
+// unknown keys, wrong types, impossible values and contradictions.
+RutdConfig parse_config(const std::string& yaml_text, const std::string& file);
+// Reads and parses a file; an unreadable file is an InputError too.
+RutdConfig load_config(const std::string& path);
+// The embedded default configuration (the text of config/rutd.yaml).
+const std::string& default_config_text();
+
+}  // namespace rutd

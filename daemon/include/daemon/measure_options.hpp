@@ -1,0 +1,23 @@
+#pragma once
+// Command-line options that configure the per-frame measurement, shared by `run` and `replay`.
+#include <string>
+
+#include <CLI/CLI.hpp>
+
+#include "pipeline/measurer.hpp"
+
+namespace rutd {
+
+struct MeasureOptions {
+  MeasurerConfig config;
+  std::string engine = "sgbm3way";
+  bool no_dic = false;
+  int strip_rows = 0;
+  int strip_row0 = -1;
+};
+
+void add_measure_options(CLI::App& cmd, MeasureOptions& options);
+// Turns parsed options into a MeasurerConfig; throws CLI::ValidationError on contradictory values.
+MeasurerConfig resolve_measure_options(const MeasureOptions& options, cv::Size image_size);
+
+}  // namespace rutd

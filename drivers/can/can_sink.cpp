@@ -1,0 +1,48 @@
+#include "can/can_sink.hpp"
+
+#include <chrono>
+#include <ostream>
+#include <utility>
+
+namespace rutd {
+namespace {
+
+// candump logs carry wall-clock time, as candump itself writes them, so they line up with other logs.
+std::int64_t wall_clock_ns() {
+  return std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::system_clock::now().time_since_epoch())
+      .count();
+}
+
+}  // namespace
+
+CanSink::CanSink(const CanIdConfig& ids, SocketCanBus* bus, CandumpLogWriter* log, std::ostream* log_stream,
+                 std::function<bool()> recording_failed)
+    : encoder_(ids), bus_(bus), log_(log), log_stream_(log_stream), recording_failed_(std::move(recording_failed)) {}
+
+void CanSink::emit(const CanFrame& frame) {
+  if (bus_ != nullptr && !bus_->send(frame)) return;
+  if (log_ != nullptr) log_->write(frame, wall_clock_ns());
+}
+
+void CanSink::publish(const FrameWork& work, const SensorHealth&) {
+  const int n = encoder_.encode_measurement(work.measurement, frames_);
+  for (int i = 0; i < n; ++i) emit(frames_[static_cast<std::size_t>(i)]);
+  if (log_stream_ != nullptr) log_stream_->flush();
+}
+
+void CanSink::publish_status(const SensorHealth& health, std::int64_t) {
+  SensorHealth h = health;
+  if (bus_ != nullptr) {
+    bus_->poll_errors();
+    h.bus_off = bus_->bus_off();
+    // Raised for the period in which the kernel refused frames, like the pipeline's frame_drops.
+    h.can_tx_drops = bus_->stats().dropped != dropped_at_last_status_;
+    dropped_at_last_status_ = bus_->stats().dropped;
+  }
+  // Stays raised once the recording failed: the recorder does not resume by itself.
+  if (recording_failed_ && recording_failed_()) h.recording_error = true;
+  emit(encoder_.encode_status(h));
+  if (log_stream_ != nullptr) log_stream_->flush();
+}
+
+}  // namespace rutd

@@ -1,0 +1,101 @@
+#pragma once
+// Turns measurements and sensor health into CAN frames (DESIGN.md §6). Pure code: no I/O, no
+// allocation; a sink (SocketCAN, candump log) sends what it returns. config/rutd.dbc describes the
+// frames bit for bit; keep the two in step.
+//
+// Identifiers. By default 29-bit J1939 identifiers, broadcast Proprietary B PGNs (PDU2, PF 0xFF):
+//   id = priority << 26 | PGN << 8 | source address      (data page and extended data page 0)
+//   RutMeasurement1  PGN 0xFF50  -> 0x18FF50A0 with priority 6 and source address 0xA0
+//   RutMeasurement2  PGN 0xFF51  -> 0x18FF51A0
+//   RutSensorStatus  PGN 0xFF52  -> 0x18FF52A0
+// or, with `extended = false`, the 11-bit identifiers of CanIdConfig (0x350, 0x351, 0x352).
+//
+// Payload, all three frames 8 bytes, signals little-endian (Intel), unsigned, physical = raw * factor +
+// offset. Protection in the AUTOSAR E2E profile 1 layout:
+//   byte 0          CRC-8/SAE-J1850 (can/crc8.hpp: init 0xFF, xor-out 0xFF) over the two Data ID
+//                   bytes (low byte first, then high byte) followed by payload bytes 1..7
+//   byte 1 bits 0-3 rolling counter 0..14, then back to 0 (15 is never sent, as in profile 1). Both
+//                   measurement frames of one measurement carry the same value; the status frame
+//                   has its own counter.
+//   Data IDs        RutMeasurement1 0xFF50, RutMeasurement2 0xFF51, RutSensorStatus 0xFF52. They are
+//                   fixed per message (not derived from the configured identifiers) so a receiver's
+//                   check does not depend on the addressing. Unlike a strict profile 1 CRC (which
+//                   starts from 0x00 and ends without xor), the catalogue parameters above are used.
+//
+//   RutMeasurement1  byte 1 bits 4-7  status (RutStatus number; 15 = unknown)
+//                    bits 16..27   depth     0.1 mm    0..400 mm
+//                    bits 28..39   width     0.25 mm   0..1000 mm
+//                    bits 40..47   quality   0.4 %     0..100 %
+//                    bits 48..63   area      10 mm^2   0..655340 mm^2
+//   RutMeasurement2  byte 1 bits 4-7  status (as above)
+//                    bits 16..27   left pile   0.1 mm   0..200 mm
+//                    bits 28..39   right pile  0.1 mm   0..200 mm
+//                    bits 40..51   ground slope 0.02 deg, offset -30 deg: -30..+30 deg
+//                    bits 52..63   rut centre X 0.5 mm, offset -1000 mm: -1000..+1000 mm
+//   RutSensorStatus  byte 1 bits 4-7  status of the latest measurement (SensorHealth::last_status)
+//                    bits 16..23   health flags, one bit each in SensorHealth's order: no camera,
+//                                  stale frames, calibration invalid, low texture, frame drops,
+//                                  CAN transmit drops, bus off, recording error
+//                    bits 24..39   frame rate  0.01 Hz   0..655.34 Hz
+//                    bits 40..63   dropped frames (count since start) 0..16777214
+// Values outside a signal's range saturate to its end (quality in 0..1 maps to 0..100 %). A value that
+// is not available is sent as all ones in the signal's bits (the J1939 convention): every measurement
+// field when status != Ok, and any non-finite field; a frame rate that is not finite.
+#include <array>
+#include <cstdint>
+#include <string>
+
+#include "can/can_frame.hpp"
+#include "core/sensor_health.hpp"
+#include "rut/rut_measurement.hpp"
+
+namespace rutd {
+
+struct CanIdConfig {
+  bool extended = true;                     // 29-bit J1939 identifiers; false: the 11-bit identifiers below
+  std::uint8_t source_address = 0xA0;       // J1939 source address, 0x00..0xFD
+  std::uint8_t priority = 6;                // J1939 priority, 0 (highest) .. 7
+  std::uint32_t measurement1_pgn = 0xFF50;  // PDU2 PGNs (PF >= 0xF0), 0..0x3FFFF
+  std::uint32_t measurement2_pgn = 0xFF51;
+  std::uint32_t status_pgn = 0xFF52;
+  std::uint32_t measurement1_id_11bit = 0x350;  // 0..0x7FF
+  std::uint32_t measurement2_id_11bit = 0x351;
+  std::uint32_t status_id_11bit = 0x352;
+};
+
+// Empty if `ids` is usable, else what is wrong, naming the field (for the configuration loader).
+std::string check_can_id_config(const CanIdConfig& ids);
+
+// The 29-bit J1939 identifier for a PGN: priority << 26 | pgn << 8 | source address.
+constexpr std::uint32_t j1939_id(std::uint8_t priority, std::uint32_t pgn, std::uint8_t source_address) {
+  return (static_cast<std::uint32_t>(priority) << 26) | (pgn << 8) | source_address;
+}
+
+// E2E Data IDs (see above).
+inline constexpr std::uint16_t kMeasurement1DataId = 0xFF50;
+inline constexpr std::uint16_t kMeasurement2DataId = 0xFF51;
+inline constexpr std::uint16_t kStatusDataId = 0xFF52;
+
+class CanEncoder {  // not thread-safe: one publisher thread owns it. Keeps the rolling counters.
+ public:
+  // Throws std::invalid_argument with check_can_id_config's message if `ids` is not usable.
+  explicit CanEncoder(CanIdConfig ids = {});
+
+  // Fills out[0] (RutMeasurement1) and out[1] (RutMeasurement2) for one measurement and returns the
+  // number of frames filled (2). Advances the measurement counter.
+  int encode_measurement(const RutMeasurement& m, std::array<CanFrame, 2>& out) noexcept;
+
+  // The RutSensorStatus frame. Advances the status counter.
+  CanFrame encode_status(const SensorHealth& h) noexcept;
+
+  const CanIdConfig& ids() const noexcept { return ids_; }
+
+ private:
+  CanFrame make_frame(std::uint32_t pgn, std::uint32_t id_11bit) const noexcept;
+
+  CanIdConfig ids_;
+  std::uint8_t measurement_counter_ = 0;
+  std::uint8_t status_counter_ = 0;
+};
+
+}  // namespace rutd

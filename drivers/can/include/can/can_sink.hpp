@@ -1,0 +1,43 @@
+#pragma once
+// The pipeline's measurement sink for CAN (the adapter between pipeline/measurement_sink.hpp and the
+// CAN transport of this folder). Called from the pipeline's publish thread only.
+#include <array>
+#include <cstdint>
+#include <functional>
+#include <iosfwd>
+
+#include "can/can_encoder.hpp"
+#include "can/candump_log.hpp"
+#include "can/socketcan_bus.hpp"
+#include "pipeline/measurement_sink.hpp"
+
+namespace rutd {
+
+// CAN: every measurement and status is encoded once; each frame goes to the bus (when configured) and
+// to the candump log (when configured), so the log is exactly what the bus got. With a bus, frames the
+// kernel refused (full queue) are counted, reported in the status message and not logged. With a
+// recording, every status frame after the recording failed carries RecordingError = 1.
+class CanSink final : public MeasurementSink {
+ public:
+  // bus and log may be null (not configured); neither is owned, both must outlive the sink. log_stream
+  // is flushed per call so a reader of a pipe sees frames as they are sent. recording_failed, when set,
+  // is asked on the publish thread at every status (FrameRecorder::failed, which is thread-safe): the
+  // CAN library knows nothing of recordings.
+  CanSink(const CanIdConfig& ids, SocketCanBus* bus, CandumpLogWriter* log, std::ostream* log_stream,
+          std::function<bool()> recording_failed = {});
+  void publish(const FrameWork& work, const SensorHealth& health) override;
+  void publish_status(const SensorHealth& health, std::int64_t t_ns) override;
+
+ private:
+  void emit(const CanFrame& frame);
+
+  CanEncoder encoder_;
+  SocketCanBus* bus_;
+  CandumpLogWriter* log_;
+  std::ostream* log_stream_;
+  std::function<bool()> recording_failed_;
+  std::array<CanFrame, 2> frames_{};
+  std::uint64_t dropped_at_last_status_ = 0;
+};
+
+}  // namespace rutd

@@ -1,0 +1,80 @@
+#pragma once
+// Sub-pixel disparity refinement by digital image correlation (DIC).
+//
+// Why: the sub-pixel disparities of block matchers and SGM are biased toward whole pixels ("pixel
+// locking", tenths of a pixel), which at rut depths means millimetres. DIC removes that bias: for each
+// pixel, the window around it in the left strip is matched in the right strip by inverse-compositional
+// Gauss-Newton minimisation of the zero-normalised SSD (invariant to gain and offset between the
+// cameras) over a first-order horizontal warp
+//     x_right = x + u + ux * xi + uy * eta      (xi, eta: offsets from the pixel within the window)
+// so the disparity is d = -u and its gradients -ux, -uy absorb sloped terrain (rut walls) that would
+// otherwise distort the window match. The right strip is sampled with a cubic B-spline interpolant
+// along rows (rows stay integer: the strips are rectified), which unlike bilinear interpolation does not
+// itself lock to whole pixels.
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+namespace rutd {
+
+struct DicConfig {
+  int half_window = 5;         // px; the window is (2h+1) wide and (2 half_height+1) tall, clipped to the strip
+  int half_height = 0;         // px; 0: same as half_window. Taller windows cost no lateral resolution (the
+                               // cross-section averages along rows anyway) and tame low-texture noise
+  int max_iterations = 20;     // a pixel that has not converged by then is rejected
+  double tolerance_px = 1e-3;  // converged when the warp update moves the window's corners less, px
+  int step = 1;                // refine pixels with x % step == 0 and row % row_step == 0; others become NaN
+  int row_step = 0;            // 0: same as step
+  int row_begin = 0;           // refine rows [row_begin, row_end) only; others become NaN
+  int row_end = -1;            // -1: to the last row
+  bool parallel = true;        // split rows across OpenCV's worker threads
+  bool first_order = true;     // fit ux, uy (disparity gradients); false: pure shift
+  double max_shift_px = 2.0;   // reject when |refined - initial disparity| exceeds this, px
+  double max_gradient = 0.5;   // reject when |ux| or |uy| exceed this, px/px (warp degenerates)
+  double min_gradient = 1.0;   // reject windows whose RMS horizontal intensity gradient is lower, grey/px
+  double min_zncc = 0.8;       // reject when the final zero-normalised cross-correlation is lower
+  // Reject when the estimated standard deviation of the refined disparity exceeds this, px; <= 0: off.
+  // The estimate is the Gauss-Newton covariance: residual variance per sample times the shift term of
+  // the inverse Hessian, i.e. the precision the window's texture and noise actually allow.
+  double max_sigma_px = 0.0;
+};
+
+struct DicStats {
+  int refined = 0;             // pixels with a refined disparity
+  int rejected = 0;            // pixels with an initial disparity that were set NaN (texture, divergence,
+                               // bound, correlation, window leaving the right strip)
+  double mean_iterations = 0;  // Gauss-Newton iterations per refined pixel
+};
+
+// The per-window buffers of one thread.
+struct DicScratch {
+  std::vector<float> f;     // window of the left strip, mean removed
+  std::vector<float> sd_x;  // steepest-descent images: fx, fx * xi, fx * eta
+  std::vector<float> sd_xi;
+  std::vector<float> sd_eta;
+  std::vector<float> g;        // samples of the right strip under the current warp
+  std::vector<float> pos;      // per window column: fractional sample position
+  std::vector<int> index;      // per window column: whole sample position
+  std::vector<float> taps[4];  // per window column: the 4 coefficients the cubic kernel reads
+  DicStats stats;              // of this thread's rows in the current call
+  long iterations = 0;
+};
+
+// Scratch reused between frames; grows to the largest strip, window and thread count seen, then never
+// allocates. One per calling thread.
+struct DicWorkspace {
+  cv::Mat left_coeff;               // CV_32F rows x (cols + 4): cubic B-spline coefficients, 2 mirrored each side
+  cv::Mat right_coeff;              // same for the right strip
+  cv::Mat left_dx;                  // CV_32F rows x cols: x derivative of the left interpolant at the pixels
+  std::vector<double> row_buffer;   // prefilter scratch
+  std::vector<DicScratch> scratch;  // one per row stripe
+};
+
+// Refines `disparity` (CV_32FC1, size of the strips, px, NaN = invalid) in place. left/right: rectified
+// CV_8UC1 strips of equal size. Valid pixels on the `step` grid are refined or rejected (NaN); pixels
+// off the grid become NaN; NaN input stays NaN. Per-frame: no exceptions, no allocation in steady state.
+// Not thread-safe for one workspace.
+DicStats refine_disparity_dic(const cv::Mat& left_strip, const cv::Mat& right_strip, cv::Mat& disparity,
+                              const DicConfig& params, DicWorkspace& ws);
+
+}  // namespace rutd

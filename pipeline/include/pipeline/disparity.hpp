@@ -1,0 +1,89 @@
+#pragma once
+// Disparity engines (DESIGN.md §3): the interface every engine (CPU here, CUDA elsewhere) implements,
+// the CPU factory, and the choice of the search band from the working range of distances.
+#include <memory>
+#include <optional>
+#include <string_view>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "pipeline/stereo_geometry.hpp"
+
+namespace rutd {
+
+// Bm: OpenCV StereoBM. Sgbm/Sgbm3Way/Hh4/Hh: OpenCV StereoSGBM in its MODE_SGBM (5 paths),
+// MODE_SGBM_3WAY, MODE_HH4 (4 paths) and MODE_HH (8 paths, full-image memory) modes.
+enum class EngineKind { Bm, Sgbm, Sgbm3Way, Hh4, Hh };
+
+// "bm", "sgbm", "sgbm3way", "hh4", "hh"; nullopt for anything else.
+std::optional<EngineKind> parse_engine(std::string_view name);
+std::string_view to_string(EngineKind kind);
+
+// Disparities searched: min_disparity .. min_disparity + num_disparities - 1, pixels. num_disparities
+// is a positive multiple of 16 (what the OpenCV engines require).
+struct DisparityBand {
+  int min_disparity = 0;
+  int num_disparities = 16;
+};
+
+// Plausible distances from the left camera to the terrain along the rectified optical axis, mm.
+struct WorkingRange {
+  double near_mm = 150.0;
+  double far_mm = 1500.0;
+};
+
+// One engine per thread; not thread-safe. Engines keep their scratch between calls.
+class DisparityEngine {
+ public:
+  virtual ~DisparityEngine() = default;
+  virtual EngineKind kind() const = 0;
+  // left/right: rectified CV_8UC1 strips of equal size. disparity: CV_32FC1 of the same size in pixels,
+  // with the engine's sub-pixel precision kept (1/16 px for OpenCV), NaN where invalid (including the
+  // left min_disparity + num_disparities columns, which have no match in the right strip). Reuses
+  // `disparity` when it already fits.
+  virtual void compute(const cv::Mat& left, const cv::Mat& right, DisparityBand band, cv::Mat& disparity) = 0;
+};
+
+// Engine tuning. block_size 0 and every other field -1 mean "the engine's default" (given per field).
+struct EngineConfig {
+  int block_size = 0;          // odd, px. Default: 15 for Bm, 5 for the SGBM modes (clamped to the strip)
+  int uniqueness_ratio = -1;   // percent margin of the best cost over the second best. Default 15 / 10
+  int speckle_window = -1;     // px; connected regions smaller than this are invalidated, 0 = off. Default 100
+  int speckle_range = -1;      // px; max disparity step inside one speckle region. Default 2
+  int disp12_max_diff = -1;    // px; left-right consistency tolerance. Default 1; -2 switches the check off
+  int pre_filter_cap = -1;     // clipping of the prefiltered image. Default 31 (Bm) / 63 (SGBM)
+  int texture_threshold = -1;  // Bm only: minimum texture in the block. Default 10
+  int p1 = -1;                 // SGBM smoothness penalty for +-1 px steps. Default 8 * block_size^2
+  int p2 = -1;                 // SGBM smoothness penalty for larger steps. Default 32 * block_size^2
+};
+
+// Throws std::invalid_argument for parameters OpenCV would refuse (even block size, p2 <= p1, ...).
+std::unique_ptr<DisparityEngine> make_cpu_engine(EngineKind kind, const EngineConfig& params = {});
+
+// The band that covers every disparity of `range` (far end rounded down, near end up), min_disparity
+// >= 0. Can be wide (hundreds of px) for a wide range; see estimate_band.
+DisparityBand band_for_range(const StereoGeometry& g, WorkingRange range);
+
+// The terrain is near a plane at an unknown distance in `range`: a coarse pass (strips downsampled
+// horizontally by a power of two so the band of `range` fits in at most 128 coarse px, StereoSGBM)
+// finds the disparities present at textured pixels; returns a narrow band around them (2nd..98th percentile plus a
+// margin of max(4 px, 2 coarse px, 25% of the spread)), clamped to band_for_range(range). Returns band_for_range(range)
+// when fewer than 5% of the coarse pixels get a disparity. BandEstimator keeps the coarse matcher and its buffers
+// between calls, for the per-frame path (one per thread); estimate_band is the one-off form and builds them each call.
+class BandEstimator {
+ public:
+  DisparityBand estimate(const cv::Mat& left_strip, const cv::Mat& right_strip, const StereoGeometry& g,
+                         WorkingRange range);
+
+ private:
+  std::unique_ptr<DisparityEngine> engine_;
+  int engine_block_ = 0;  // block size engine_ was made with
+  cv::Mat left_, right_, coarse_, texture_;
+  std::vector<float> found_;
+};
+
+DisparityBand estimate_band(const cv::Mat& left_strip, const cv::Mat& right_strip, const StereoGeometry& g,
+                            WorkingRange range);
+
+}  // namespace rutd

@@ -1,0 +1,106 @@
+#pragma once
+// One stereo pair in, one rut measurement out (DESIGN.md §2-5), in three stages that a real-time
+// pipeline runs on separate threads and `replay` runs one after the other:
+//   rectify  - remap the strip of both raw images (rows around the measured strip)
+//   match    - find the disparity band, match, refine by digital image correlation
+//   extract  - reproject to millimetres, reduce to a cross-section, extract the rut
+// Per-frame path: nothing here throws because of frame content; a status says what went wrong.
+#include <memory>
+#include <optional>
+
+#include <opencv2/core.hpp>
+
+#include "core/stereo_calibration.hpp"
+#include "core/stereo_frame.hpp"
+#include "pipeline/dic_refine.hpp"
+#include "pipeline/disparity.hpp"
+#include "pipeline/stereo_geometry.hpp"
+#include "rut/extract.hpp"
+#include "rut/rut_measurement.hpp"
+
+namespace rutd {
+
+struct MeasurerConfig {
+  // The default: with DIC every engine gives the same depth on rendered ruts (within 0.01 mm), so the
+  // choice rests on real images, where SGBM_3WAY has the lowest bad-1.0 of the full-coverage engines on
+  // the Middlebury pairs (tests/integration/test_middlebury.cpp), and on speed, where it is the fastest
+  // SGBM mode.
+  EngineKind engine = EngineKind::Sgbm3Way;
+  EngineConfig engine_config;
+  // Strip of rectified rows to measure. rows == 0: default_strip(); row0 < 0: centred.
+  StripRoi strip;
+  // Plausible camera-to-terrain distances. The band is found per frame inside it (estimate_band) unless
+  // fixed_band is set.
+  WorkingRange range;
+  std::optional<DisparityBand> fixed_band;
+  bool dic = true;  // sub-pixel refinement; without it OpenCV's pixel locking biases the depth
+  // Every second row: adjacent windows overlap by 10 of 11 rows, so this halves the time for the same
+  // accuracy (measured: depth changed by under 0.01 mm on rendered ruts).
+  DicConfig dic_config{.row_step = 2};
+  RutConfig rut;
+};
+
+// Figures of one frame's measurement, for logs and benchmarks. Milliseconds of thread time per stage.
+struct MeasurementDiagnostics {
+  DisparityBand band;
+  DicStats dic;
+  double rectify_ms = 0, band_ms = 0, disparity_ms = 0, dic_ms = 0, reproject_ms = 0, rut_ms = 0;
+};
+
+// Everything one pair needs on its way through the stages. Frame pools hold these; every buffer is
+// reused, so once a slot has seen a frame of a given size nothing is allocated for the next one (OpenCV's
+// matchers allocate their own internal buffers).
+struct FrameWork {
+  StereoFrame frame;
+  cv::Mat left_strip, right_strip;  // CV_8UC1 rectified strips, rows of StereoGeometry::roi()
+  cv::Mat disparity;                // CV_32FC1 px, NaN invalid
+  cv::Mat xyz;                      // CV_32FC3 mm, left rectified camera frame, NaN invalid
+  CrossSection section;
+  RutMeasurement measurement;
+  MeasurementDiagnostics diag;
+};
+
+// What the match stage needs of its own: one per thread that runs match().
+struct MatchContext {
+  std::unique_ptr<DisparityEngine> engine;
+  BandEstimator band;
+  DicWorkspace dic;
+};
+
+class StereoMeasurer {
+ public:
+  // Computes the rectification once. Throws std::invalid_argument for a strip outside the image.
+  StereoMeasurer(const StereoCalibration& calibration, const MeasurerConfig& config);
+
+  // Stages; each is const and thread-safe as long as every thread passes its own FrameWork and context.
+  // rectify() returns false, with measurement.status NoMeasurement, when the frame does not match the
+  // calibration (size, type); later stages must then be skipped.
+  bool rectify(FrameWork& work) const;
+  void match(FrameWork& work, MatchContext& context) const;
+  void extract(FrameWork& work, RutWorkspace& workspace) const;
+
+  MatchContext make_match_context() const;
+
+  // The three stages in turn on internal buffers (replay, tests). Not thread-safe.
+  RutMeasurement measure(const cv::Mat& left_raw, const cv::Mat& right_raw);
+  const MeasurementDiagnostics& diagnostics() const { return work_.diag; }
+  // The last measure() call's refined disparity strip (CV_32FC1 px, NaN invalid).
+  const cv::Mat& disparity() const { return work_.disparity; }
+
+  const StereoGeometry& geometry() const { return geometry_; }
+  const MeasurerConfig& config() const { return config_; }
+
+ private:
+  MeasurerConfig config_;
+  cv::Size image_size_;
+  StereoGeometry geometry_;
+  // Scratch of measure().
+  FrameWork work_;
+  MatchContext context_;
+  RutWorkspace rut_ws_;
+};
+
+// The default strip: centred, clamp(height/10, 20, 64) rows of the rectified image.
+StripRoi default_strip(cv::Size rectified_size);
+
+}  // namespace rutd

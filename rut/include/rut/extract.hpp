@@ -1,0 +1,86 @@
+#pragma once
+// Rut extraction (DESIGN.md §5): a strip of 3D points -> a lateral cross-section Z(X) -> one
+// RutMeasurement whose fields follow the definitions in rut/rut_measurement.hpp exactly.
+//
+// All lengths are millimetres in the left rectified camera frame (X across the rut, Z distance from
+// the camera), so the results do not depend on image resolution. Nothing here throws or allocates on
+// the per-frame path once the caller-owned CrossSection and RutWorkspace have grown to the largest
+// section seen. Not thread-safe per object: use one CrossSection/RutWorkspace per thread.
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "rut/rut_measurement.hpp"
+
+namespace rutd {
+
+struct RutConfig {
+  double bin_mm = 1.0;          // cross-section sampling step along X
+  double fit_window_mm = 25.0;  // sliding parabola window (the paper used 50 px)
+  // Expected rut width range: a rut whose opening (width_mm) falls outside it is reported as NoRut.
+  double min_rut_width_mm = 80.0;
+  double max_rut_width_mm = 400.0;
+  // A depression shallower than this (or than 6x the smoothed noise) below the ground line is not a
+  // rut (NoRut).
+  double min_rut_depth_mm = 3.0;
+  // A pile lower than this (or lower than 5x the smoothed noise) is reported as 0: no pile.
+  double min_pile_mm = 1.0;
+  // A bin is undisturbed ground only if |dZ/dX - ground slope| of the local fit is below this
+  // (dimensionless; raised automatically above 4x the slope noise of the fit).
+  double ground_gradient_max = 0.15;
+  // Undisturbed ground needed to fit the line (else NoGround): at least min_ground_mm in all, or at
+  // least min_ground_each_side_mm on both sides of the rut. Ground on both sides pins the slope by the
+  // lever arm between them (a rut and its piles apart), so a little on each side is enough; ground on
+  // one side only must fix the slope by itself. Ground counts from a pile's outer foot on, less the
+  // bins whose local fit (fit_window_mm) still sees the pile's flank, about a quarter window: the
+  // honest minimum of visible ground beyond each pile is therefore about fit_window_mm / 4 +
+  // min_ground_each_side_mm (12 mm at the defaults). Narrow views (80 mm baseline at 300 mm, 640 px)
+  // leave 20-40 mm per side. Under noise correlated over ~10 bins (low-texture snow, 0.4 mm) 20 mm
+  // per side gives depth within 0.4 mm rms, single frames within about 1.1 mm.
+  double min_ground_mm = 40.0;
+  double min_ground_each_side_mm = 5.0;
+  // Fewer valid bins than this fraction of the section, or than two fit windows -> TooFewPoints.
+  double min_valid_fraction = 0.4;
+  // reduce_to_cross_section: fraction of samples dropped at each end of every bin before averaging
+  // (0.25 = interquartile mean: robust to stereo outliers, ~85 % of the mean's efficiency).
+  double trim_fraction = 0.25;
+  // reduce_to_cross_section: the section never spans more than this; points beyond it (reprojection
+  // outliers far off to the side) are dropped, which also bounds the memory a frame can claim.
+  double max_section_mm = 4000.0;
+};
+
+// Z(X) on a regular X grid, left rectified camera frame, mm.
+struct CrossSection {
+  double x0_mm = 0.0;        // X of bin 0 centre; always a multiple of dx_mm
+  double dx_mm = 1.0;        // bin width
+  std::vector<double> z_mm;  // robust mean Z of each bin; NaN where the bin had no valid point
+  std::vector<int> count;    // valid points averaged into each bin
+  // Storage reused by reduce_to_cross_section between frames; contents unspecified.
+  std::vector<float> scratch_z;
+  std::vector<int> scratch_offset;
+};
+
+// Scratch vectors reused between frames by extract_rut; contents unspecified.
+struct RutWorkspace {
+  std::vector<double> smooth;  // local quadratic fit value per bin (Z, mm)
+  std::vector<double> slope;   // local fit dZ/dX per bin
+  std::vector<double> h_raw;   // raw heights above the current ground line (mm, + = towards camera)
+  std::vector<double> h_fit;   // smoothed heights above the current ground line
+  std::vector<double> a;       // general scratch (residuals, fit inputs)
+  std::vector<double> b;
+  std::vector<double> c;
+};
+
+// xyz: CV_32FC3 strip of 3D points (X, Y, Z in mm), a point is invalid if any coordinate is NaN/inf
+// or Z <= 0. Every valid point falls into the X bin of width params.bin_mm nearest to it; each bin's
+// Z is the trimmed mean of its points (params.trim_fraction), i.e. the paper's box filter along Y made
+// robust to outliers. The grid spans the valid points (at most params.max_section_mm, centred on their
+// median X). An empty strip or one of another type yields a section with no bins.
+void reduce_to_cross_section(const cv::Mat& xyz, const RutConfig& params, CrossSection& out);
+
+// The seed method of DESIGN.md §5 in mm units, made robust (see extract.cpp for the steps). Pure:
+// depends only on its arguments. Fills every field it could measure; only status Ok guarantees all
+// of them, and quality is 0 unless the status is Ok.
+RutMeasurement extract_rut(const CrossSection& section, const RutConfig& params, RutWorkspace& ws);
+
+}  // namespace rutd
