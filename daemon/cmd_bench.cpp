@@ -4,13 +4,18 @@
 // so rendering is not measured. Two regimes per mode:
 //   throughput  lossless, the source as fast as the pipeline takes pairs: the sustained rate;
 //   live        freshest frame wins, the source paced like a camera (--fps): capture-to-publish latency.
-// Figures are printed, never asserted: compare ratios within one run on a shared machine.
+// Figures are printed, never asserted: compare ratios within one run on a shared machine. --json prints
+// the same rows as one JSON object per line (for scripts and tables), instead of the text.
+#include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <memory>
 #include <string>
 #include <thread>
 #include <vector>
+
+#include <fmt/format.h>
 
 #include "daemon/commands.hpp"
 #include "daemon/dimensions.hpp"
@@ -28,19 +33,28 @@ struct Options {
   int frames = 4;  // distinct pairs rendered
   std::string engine = "sgbm3way";
   std::string size = "640x480";
+  bool json = false;
 };
+// Counts what the pipeline published and compares each OK depth with the renderer's truth of the pair it
+// came from (the cycling source delivers frames[seq % frames.size()]).
 class CountingSink final : public MeasurementSink {
  public:
+  explicit CountingSink(std::vector<double> truth_depth_mm) : truth_(std::move(truth_depth_mm)) {}
   void publish(const FrameWork& w, const SensorHealth&) override {
     ++published;
     if (w.measurement.status == RutStatus::Ok) {
       ++ok;
       depth_sum += w.measurement.depth_mm;
+      const double err = std::abs(w.measurement.depth_mm - truth_[w.frame.seq % truth_.size()]);
+      worst_error_mm = std::max(worst_error_mm, err);
     }
   }
   void publish_status(const SensorHealth&, std::int64_t) override {}
   std::uint64_t published = 0, ok = 0;  // publish thread; read after stop()
-  double depth_sum = 0;
+  double depth_sum = 0, worst_error_mm = 0;
+
+ private:
+  std::vector<double> truth_;
 };
 
 double ms(std::int64_t ns) { return static_cast<double>(ns) * 1e-6; }
@@ -53,7 +67,9 @@ void run(const char* mode, const char* regime, const SyntheticRenderer& renderer
   const auto period =
       fps > 0 ? std::chrono::nanoseconds(static_cast<std::int64_t>(1e9 / fps)) : std::chrono::nanoseconds(0);
   CyclingSource source(renderer.calibration(), frames, period);
-  CountingSink sink;
+  std::vector<double> truth;
+  for (std::size_t i = 0; i < frames.size(); ++i) truth.push_back(renderer.truth(i).depth_mm);
+  CountingSink sink(std::move(truth));
   PipelineConfig config;
   config.lossless = lossless;
   config.max_frame_age = std::chrono::milliseconds(0);  // measure, do not refuse
@@ -64,13 +80,29 @@ void run(const char* mode, const char* regime, const SyntheticRenderer& renderer
   pipeline.stop();
   const double hz = static_cast<double>(s.published) / o.seconds;
   const StripRoi strip = measurer.config().strip;
+  if (o.json) {
+    // depth_err_mm: the worst |depth - truth| over the OK measurements (null when there was none).
+    const std::string err = sink.ok ? fmt::format("{:.4f}", sink.worst_error_mm) : "null";
+    std::printf(
+        "{\"mode\":\"%s\",\"run\":\"%s\",\"engine\":\"%s\",\"dic\":%s,\"width\":%d,\"height\":%d,"
+        "\"rows\":%d,\"hz\":%.2f,\"p50_ms\":%.3f,\"p99_ms\":%.3f,\"depth_err_mm\":%s,\"published\":%llu,"
+        "\"ok\":%llu,\"dropped\":%llu,\"rectify_p50_ms\":%.3f,\"match_p50_ms\":%.3f,"
+        "\"extract_p50_ms\":%.3f}\n",
+        mode, regime, std::string(to_string(mc.engine)).c_str(), mc.dic ? "true" : "false",
+        renderer.calibration().image_size.width, renderer.calibration().image_size.height, strip.rows, hz,
+        ms(s.end_to_end.p50_ns), ms(s.end_to_end.p99_ns), err.c_str(), static_cast<unsigned long long>(s.published),
+        static_cast<unsigned long long>(sink.ok), static_cast<unsigned long long>(s.dropped_total()),
+        ms(s.stage_latency[1].p50_ns), ms(s.stage_latency[2].p50_ns), ms(s.stage_latency[3].p50_ns));
+    std::fflush(stdout);
+    return;
+  }
   std::printf(
-      "%-6s %-10s rows %3d..%3d  published %4llu (%3llu ok, depth %.2f mm)  %7.2f Hz  "
+      "%-6s %-10s rows %3d..%3d  published %4llu (%3llu ok, depth %.2f mm, worst error %.3f mm)  %7.2f Hz  "
       "e2e p50 %8.2f p99 %8.2f ms | rectify %6.2f match %8.2f extract %6.2f ms (p50) | dropped %llu\n",
       mode, regime, strip.row0, strip.row0 + strip.rows, static_cast<unsigned long long>(s.published),
-      static_cast<unsigned long long>(sink.ok), sink.ok ? sink.depth_sum / static_cast<double>(sink.ok) : 0.0, hz,
-      ms(s.end_to_end.p50_ns), ms(s.end_to_end.p99_ns), ms(s.stage_latency[1].p50_ns), ms(s.stage_latency[2].p50_ns),
-      ms(s.stage_latency[3].p50_ns), static_cast<unsigned long long>(s.dropped_total()));
+      static_cast<unsigned long long>(sink.ok), sink.ok ? sink.depth_sum / static_cast<double>(sink.ok) : 0.0,
+      sink.worst_error_mm, hz, ms(s.end_to_end.p50_ns), ms(s.end_to_end.p99_ns), ms(s.stage_latency[1].p50_ns),
+      ms(s.stage_latency[2].p50_ns), ms(s.stage_latency[3].p50_ns), static_cast<unsigned long long>(s.dropped_total()));
   std::fflush(stdout);
 }
 
@@ -83,9 +115,11 @@ int run_bench(const Options& o) {
   const SyntheticRenderer renderer(p);
   std::vector<StereoFrame> frames(static_cast<std::size_t>(o.frames));
   for (std::size_t i = 0; i < frames.size(); ++i) renderer.render(i, frames[i]);
-  std::printf("%dx%d synthetic pairs, truth depth %.2f mm, engine %s, DIC %s, %u hardware threads, %.0f s per run\n",
-              p.rig.image_size.width, p.rig.image_size.height, renderer.truth(0).depth_mm, o.engine.c_str(),
-              o.dic ? "on" : "off", std::thread::hardware_concurrency(), o.seconds);
+  // With --json, stdout carries only the JSON lines.
+  std::fprintf(o.json ? stderr : stdout,
+               "%dx%d synthetic pairs, truth depth %.2f mm, engine %s, DIC %s, %u hardware threads, %.0f s per run\n",
+               p.rig.image_size.width, p.rig.image_size.height, renderer.truth(0).depth_mm, o.engine.c_str(),
+               o.dic ? "on" : "off", std::thread::hardware_concurrency(), o.seconds);
   MeasurerConfig strip;
   strip.engine = *parse_engine(o.engine);
   strip.dic = o.dic;
@@ -116,6 +150,9 @@ void add_bench_command(CLI::App& app, int& exit_code) {
   cmd->add_option("--size", o->size, "Image size WIDTHxHEIGHT")->capture_default_str();
   auto no_dic = std::make_shared<bool>(false);
   cmd->add_flag("--no-dic", *no_dic, "No sub-pixel refinement");
+  cmd->add_flag("--json", o->json,
+                "One JSON object per run on stdout (mode, run, engine, dic, width, height, rows, hz, "
+                "p50_ms, p99_ms, depth_err_mm, ...) instead of the text table");
   cmd->callback([o, no_dic, &exit_code] {
     o->dic = !*no_dic;
     exit_code = run_bench(*o);

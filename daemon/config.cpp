@@ -166,7 +166,7 @@ std::string parse_byte(const std::string& s, std::uint8_t& out, unsigned max) {
   return {};
 }
 
-void read_synthetic(Section s, SynthConfig& p) {
+void read_synthetic(Section s, SynthConfig& p, int& cycle_frames) {
   s.parse("size", [&](const std::string& t) { return parse_size(t, p.rig.image_size); })
       .get<double>("fps", p.fps, in_range(0.1, 1000.0))
       .get<double>("baseline_mm", p.rig.baseline_mm, in_range(5.0, 1000.0))
@@ -190,7 +190,8 @@ void read_synthetic(Section s, SynthConfig& p) {
       .get<double>("wander_mm", p.rut.wander_amplitude_mm, in_range(0.0, 1000.0))
       .get<double>("speed_mm_s", p.speed_mm_s, in_range(0.0, 1e5))
       .get<double>("noise", p.noise_sigma, in_range(0.0, 50.0))
-      .get<std::uint64_t>("seed", p.seed);
+      .get<std::uint64_t>("seed", p.seed)
+      .get<int>("cycle_frames", cycle_frames, in_range(0, 1000));
   if (p.rut.bottom_width_mm >= p.rut.width_mm) s.fail("bottom_width_mm", "must be smaller than width_mm");
   s.finish();
 }
@@ -335,7 +336,7 @@ RutdConfig parse_config(const std::string& yaml_text, const std::string& file) {
       return "expected synthetic, replay or aravis, got '" + t + "'";
     return std::string();
   });
-  read_synthetic(source.child("synthetic"), c.synthetic);
+  read_synthetic(source.child("synthetic"), c.synthetic, c.synthetic_cycle_frames);
   Section replay = source.child("replay");
   replay.get<std::string>("dir", c.replay.dir).get<bool>("paced", c.replay.paced).get<bool>("loop", c.replay.loop);
   replay.finish();

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <thread>
+#include <vector>
 
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
@@ -12,6 +13,7 @@
 #include "core/input_error.hpp"
 #include "recording/calibration_file.hpp"
 #include "recording/recording.hpp"
+#include "synthetic/cycling_source.hpp"
 #include "synthetic/synthetic_source.hpp"
 
 namespace rutd {
@@ -92,11 +94,21 @@ std::unique_ptr<FrameSource> make_camera_source(const RutdConfig& c) {
   }
 }
 
+// The synthetic rig: rendered live, or a short cycle rendered once and played at the camera rate.
+std::unique_ptr<FrameSource> make_synthetic_source(const RutdConfig& c) {
+  if (c.synthetic_cycle_frames <= 0) return std::make_unique<SyntheticSource>(c.synthetic);
+  const SyntheticRenderer renderer(c.synthetic);
+  std::vector<StereoFrame> frames(static_cast<std::size_t>(c.synthetic_cycle_frames));
+  for (std::size_t i = 0; i < frames.size(); ++i) renderer.render(i, frames[i]);
+  const auto period = std::chrono::nanoseconds(static_cast<std::int64_t>(1e9 / c.synthetic.fps));
+  return std::make_unique<CyclingSource>(renderer.calibration(), std::move(frames), period);
+}
+
 }  // namespace
 
 std::unique_ptr<FrameSource> make_source(const RutdConfig& c) {
   switch (c.source) {
-    case SourceKind::Synthetic: try { return std::make_unique<SyntheticSource>(c.synthetic);
+    case SourceKind::Synthetic: try { return make_synthetic_source(c);
       } catch (const std::invalid_argument& e) {
         throw InputError(c.file, "source.synthetic", e.what());
       }
@@ -109,8 +121,11 @@ std::unique_ptr<FrameSource> make_source(const RutdConfig& c) {
 std::string describe_source(const RutdConfig& c) {
   switch (c.source) {
     case SourceKind::Synthetic:
-      return fmt::format("synthetic {}x{} at {} fps", c.synthetic.rig.image_size.width,
-                         c.synthetic.rig.image_size.height, c.synthetic.fps);
+      return fmt::format("synthetic {}x{} at {} fps{}", c.synthetic.rig.image_size.width,
+                         c.synthetic.rig.image_size.height, c.synthetic.fps,
+                         c.synthetic_cycle_frames > 0
+                             ? fmt::format(" ({} pairs rendered once, cycled)", c.synthetic_cycle_frames)
+                             : std::string());
     case SourceKind::Replay:
       return "recording " + c.replay.dir + (c.replay.paced ? " (paced)" : "") + (c.replay.loop ? " (loop)" : "");
     case SourceKind::Aravis:

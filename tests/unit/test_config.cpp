@@ -6,6 +6,8 @@
 
 #include "core/input_error.hpp"
 #include "daemon/config.hpp"
+#include "daemon/run_sources.hpp"
+#include "synthetic/synthetic_renderer.hpp"
 #include "test_support.hpp"
 
 namespace rutd {
@@ -32,6 +34,7 @@ TEST(Config, EmbeddedDefaultIsTheSyntheticBenchOnStdout) {
   EXPECT_TRUE(c.can.extended);
   EXPECT_EQ(c.can.source_address, 0xA0);
   EXPECT_EQ(c.synthetic.rig.image_size, cv::Size(640, 480));
+  EXPECT_EQ(c.synthetic_cycle_frames, 8);
 }
 
 TEST(Config, ShippedFileEqualsEmbeddedDefault) {
@@ -91,6 +94,7 @@ TEST(Config, ImpossibleValuesAreNamed) {
   expect_error("can:\n  priority: 9\n", {"can.priority"});
   expect_error("source:\n  synthetic:\n    size: 640by480\n", {"line 3", "source.synthetic.size", "640by480"});
   expect_error("source:\n  synthetic:\n    fps: -3\n", {"source.synthetic.fps", "between"});
+  expect_error("source:\n  synthetic:\n    cycle_frames: -1\n", {"line 3", "source.synthetic.cycle_frames", "between"});
   expect_error("logging:\n  level: chatty\n", {"logging.level", "chatty"});
 }
 
@@ -147,6 +151,28 @@ TEST(Config, BrokenYamlAndMissingFileAreNamed) {
   } catch (const InputError& e) {
     EXPECT_NE(std::string(e.what()).find("/nonexistent/rutd.yaml"), std::string::npos);
   }
+}
+
+// The embedded default's synthetic source plays a cycle rendered once: pair k is the renderer's pair
+// k mod cycle_frames, pixel for pixel, stamped like a live camera.
+TEST(RunSources, SyntheticCycleReplaysTheRenderedPairs) {
+  RutdConfig c =
+      parse_config("source:\n  synthetic:\n    size: 320x240\n    fps: 200\n    cycle_frames: 3\n", "test.yaml");
+  const std::unique_ptr<FrameSource> source = make_source(c);
+  const SyntheticRenderer renderer(c.synthetic);
+  std::int64_t last_t = 0;
+  for (std::uint64_t k = 0; k < 5; ++k) {
+    StereoFrame got, want;
+    ASSERT_EQ(source->next(got), SourceStatus::Ok);
+    renderer.render(k % 3, want);
+    EXPECT_EQ(got.seq, k);
+    EXPECT_EQ(cv::norm(got.left, want.left, cv::NORM_INF), 0.0) << "pair " << k;
+    EXPECT_EQ(cv::norm(got.right, want.right, cv::NORM_INF), 0.0) << "pair " << k;
+    EXPECT_EQ(got.clock, ClockKind::Monotonic);
+    EXPECT_GT(got.t_ns, last_t);
+    last_t = got.t_ns;
+  }
+  EXPECT_EQ(source->calibration().image_size, cv::Size(320, 240));
 }
 
 }  // namespace

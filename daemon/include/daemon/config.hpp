@@ -40,6 +40,10 @@ struct RutdConfig {
   std::string file = "(embedded default)";  // where this came from, for messages
   SourceKind source = SourceKind::Synthetic;
   SynthConfig synthetic;
+  // source.synthetic.cycle_frames: > 0 renders that many pairs once at start and plays them over and over
+  // at the synthetic fps, as a camera delivers (rendering a 640x480 pair costs tens of ms of CPU that a
+  // camera does not); 0 renders every pair live, with its exact truth.
+  int synthetic_cycle_frames = 0;
   ReplaySourceConfig replay;
   AravisSourceConfig aravis;
   std::string calibration;  // calibration file; synthetic and replay sources bring their own
