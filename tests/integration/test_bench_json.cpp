@@ -1,8 +1,8 @@
 // `rutd bench --json` through the program: every run is one JSON object (decoded by Python's json module,
 // not by us) with the documented keys, and the strip runs' depths match the renderer's truth.
-#include <gtest/gtest.h>
-
 #include <string>
+
+#include <gtest/gtest.h>
 
 #include "test_support.hpp"
 

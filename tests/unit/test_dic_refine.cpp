@@ -4,7 +4,9 @@
 // field, then noise is added and it is quantised to 8 bits like a camera would.
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <random>
+#include <string>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -211,6 +213,84 @@ TEST(DicRefine, StepKeepsOnlyTheGrid) {
   EXPECT_EQ(stats.refined + stats.rejected, (kStrip.width / 4) * (kStrip.height / 4));
   EXPECT_GT(stats.refined, 0.7 * (kStrip.width / 4) * (kStrip.height / 4));
   EXPECT_LT(std::abs(error_of(disparity, d_true, 0.0, 0).mean), 0.02);
+}
+
+// The refinement processes window columns in groups of four and shares samples between neighbouring
+// windows, so window widths that fill the groups differently, steps that leave fewer or more shared
+// columns, restricted rows and windows clipped by the strip's right end each take their own branch:
+// all against the known sloped disparity.
+TEST(DicRefine, WindowShapesStepsRowsAndBordersMeetTheTruth) {
+  const double d0 = 20.3, slope = 0.05;
+  const Pair pair = render_pair(d0, slope, kStrip, 17);
+  auto sgbm = make_cpu_engine(EngineKind::Sgbm);
+  cv::Mat engine;
+  sgbm->compute(pair.left, pair.right, {16, 48}, engine);
+  struct Shape {
+    int half_window, half_height;
+  };
+  DicWorkspace ws;  // shared: the tables must follow the shape from call to call
+  for (const Shape shape : {Shape{2, 0}, Shape{3, 6}, Shape{4, 4}, Shape{7, 3}, Shape{9, 2}, Shape{15, 1}}) {
+    for (const int step : {1, 3}) {
+      DicConfig params;
+      params.half_window = shape.half_window;
+      params.half_height = shape.half_height;
+      params.step = step;
+      params.row_step = 2;
+      params.row_begin = 9;
+      params.row_end = 41;
+      cv::Mat disparity = engine.clone();
+      const DicStats stats = refine_disparity_dic(pair.left, pair.right, disparity, params, ws);
+      const Error all = error_of(disparity, d0, slope, 64);
+      // Windows clipped by the right end of the strip.
+      const Error border = error_of(disparity.colRange(kStrip.width - shape.half_window, kStrip.width),
+                                    d0 + slope * (kStrip.width - shape.half_window), slope, 0);
+      int outside = 0;  // valid pixels off the grid or outside the rows
+      for (int y = 0; y < kStrip.height; ++y) {
+        for (int x = 0; x < kStrip.width; ++x) {
+          const bool grid = y >= 9 && y < 41 && y % 2 == 0 && x % step == 0;
+          outside += !grid && std::isfinite(disparity.at<float>(y, x));
+        }
+      }
+      std::printf(
+          "h %2d hh %d step %d: bias %+.4f rms %.4f (%d px), right border bias %+.4f rms %.4f (%d px), %d "
+          "refined %d rejected, %.2f iterations\n",
+          shape.half_window, shape.half_height, step, all.mean, all.rms, all.count, border.mean, border.rms,
+          border.count, stats.refined, stats.rejected, stats.mean_iterations);
+      const std::string what = "h " + std::to_string(shape.half_window) + " step " + std::to_string(step);
+      EXPECT_EQ(outside, 0) << what;
+      EXPECT_LT(std::abs(all.mean), 0.02) << what;
+      EXPECT_LT(all.rms, 0.06) << what;
+      const int grid_pixels = 16 * ((kStrip.width - 64 + step - 1) / step);
+      EXPECT_GT(all.count, 0.9 * grid_pixels) << what;
+      EXPECT_GT(border.count, 0) << what;
+      // h = 2 clips to windows of 3 columns there, which the noise alone moves by ~0.2 px rms.
+      if (shape.half_window >= 3) {
+        EXPECT_LT(std::abs(border.mean), 0.05) << what;
+        EXPECT_LT(border.rms, 0.1) << what;
+      }
+    }
+  }
+}
+
+TEST(DicRefine, WideVectorsGiveTheSameResultsBitForBit) {
+  // On x86 CPUs with AVX2 the samples are taken 8 lanes at a time; the 4-lane path must give the same
+  // disparities to the bit (elsewhere both runs take the 4-lane path).
+  const Pair pair = render_pair(20.3, 0.05, kStrip, 19);
+  auto sgbm = make_cpu_engine(EngineKind::Sgbm);
+  cv::Mat engine;
+  sgbm->compute(pair.left, pair.right, {16, 48}, engine);
+  for (const int half_window : {2, 5, 9}) {
+    DicConfig params;
+    params.half_window = half_window;
+    cv::Mat wide = engine.clone(), narrow = engine.clone();
+    DicWorkspace ws;
+    const DicStats a = refine_disparity_dic(pair.left, pair.right, wide, params, ws);
+    params.allow_avx2 = false;
+    const DicStats b = refine_disparity_dic(pair.left, pair.right, narrow, params, ws);
+    EXPECT_EQ(a.refined, b.refined) << half_window;
+    EXPECT_EQ(a.mean_iterations, b.mean_iterations) << half_window;
+    EXPECT_EQ(std::memcmp(wide.data, narrow.data, wide.total() * wide.elemSize()), 0) << half_window;
+  }
 }
 
 }  // namespace

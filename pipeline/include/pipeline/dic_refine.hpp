@@ -18,7 +18,7 @@
 namespace rutd {
 
 struct DicConfig {
-  int half_window = 5;         // px; the window is (2h+1) wide and (2 half_height+1) tall, clipped to the strip
+  int half_window = 5;         // px, 1..15; the window is (2h+1) wide and (2 half_height+1) tall, clipped to the strip
   int half_height = 0;         // px; 0: same as half_window. Taller windows cost no lateral resolution (the
                                // cross-section averages along rows anyway) and tame low-texture noise
   int max_iterations = 20;     // a pixel that has not converged by then is rejected
@@ -37,6 +37,9 @@ struct DicConfig {
   // The estimate is the Gauss-Newton covariance: residual variance per sample times the shift term of
   // the inverse Hessian, i.e. the precision the window's texture and noise actually allow.
   double max_sigma_px = 0.0;
+  // Sample with 8-lane AVX2 vectors on x86 CPUs that have them (chosen at run time); the results are
+  // bit for bit those of the 4-lane path. false: always the 4-lane path (tests compare the two).
+  bool allow_avx2 = true;
 };
 
 struct DicStats {
@@ -46,27 +49,22 @@ struct DicStats {
   double mean_iterations = 0;  // Gauss-Newton iterations per refined pixel
 };
 
-// The per-window buffers of one thread.
+// The buffers of one thread (one row stripe).
 struct DicScratch {
-  std::vector<float> f;     // window of the left strip, mean removed
-  std::vector<float> sd_x;  // steepest-descent images: fx, fx * xi, fx * eta
-  std::vector<float> sd_xi;
-  std::vector<float> sd_eta;
-  std::vector<float> g;        // samples of the right strip under the current warp
-  std::vector<float> pos;      // per window column: fractional sample position
-  std::vector<int> index;      // per window column: whole sample position
-  std::vector<float> taps[4];  // per window column: the 4 coefficients the cubic kernel reads
-  DicStats stats;              // of this thread's rows in the current call
+  std::vector<float> row_buffer;   // prefilter scratch: spline coefficients of four rows, interleaved
+  std::vector<float> column_sums;  // per grid row: sums over the window's rows of each strip column
+  std::vector<float> target_sums;  // the same for the right strip under the last sampled warp
+  std::vector<float> starts;       // per window row: sample position of the window's first column
+  DicStats stats;                  // of this thread's rows in the current call
   long iterations = 0;
 };
 
 // Scratch reused between frames; grows to the largest strip, window and thread count seen, then never
-// allocates. One per calling thread.
+// allocates. One per calling thread. The tables cover only the rows the refined windows read.
 struct DicWorkspace {
-  cv::Mat left_coeff;               // CV_32F rows x (cols + 4): cubic B-spline coefficients, 2 mirrored each side
-  cv::Mat right_coeff;              // same for the right strip
-  cv::Mat left_dx;                  // CV_32F rows x cols: x derivative of the left interpolant at the pixels
-  std::vector<double> row_buffer;   // prefilter scratch
+  cv::Mat left_ref;                 // CV_32F: left strip minus 128 (exact), zero-padded columns
+  cv::Mat left_dx;                  // CV_32F: x derivative of the left interpolant at the pixels, zero-padded columns
+  cv::Mat right_poly;               // CV_32F, 4 floats per pixel interval: the right interpolant's cubic, power basis
   std::vector<DicScratch> scratch;  // one per row stripe
 };
 
