@@ -78,14 +78,16 @@ DisparityBand BandEstimator::estimate(const cv::Mat& left_strip, const cv::Mat& 
   const int coarse_hi = std::min((full_hi + scale - 1) / scale, coarse_width - coarse_width / 4);
   if (coarse_hi - coarse_lo < 1 || left_strip.rows < 3) return full;
 
-  const cv::Size coarse_size(coarse_width, left_strip.rows);
+  // Rows halved too: the band is a percentile over the whole strip, which every second row gives as well.
+  const int coarse_rows = left_strip.rows >= 10 ? left_strip.rows / 2 : left_strip.rows;
+  const cv::Size coarse_size(coarse_width, coarse_rows);
   cv::resize(left_strip, left_, coarse_size, 0, 0, cv::INTER_AREA);
   cv::resize(right_strip, right_, coarse_size, 0, 0, cv::INTER_AREA);
-  const int block = left_strip.rows >= 5 ? 5 : 3;
+  const int block = coarse_rows >= 5 ? 5 : 3;
   if (!engine_ || engine_block_ != block) {
     EngineConfig params;
     params.block_size = block;
-    engine_ = make_cpu_engine(EngineKind::Sgbm, params);
+    engine_ = make_cpu_engine(EngineKind::Sgbm3Way, params);
     engine_block_ = block;
   }
   engine_->compute(left_, right_, band_between(coarse_lo, coarse_hi), coarse_);

@@ -1,5 +1,5 @@
 #pragma once
-// Disparity engines (DESIGN.md §3): the interface every engine (CPU here, CUDA elsewhere) implements,
+// Disparity engines (DESIGN.md §3): the interface every engine (CPU here, a GPU engine later) implements,
 // the CPU factory, and the choice of the search band from the working range of distances.
 #include <memory>
 #include <optional>
@@ -66,11 +66,12 @@ std::unique_ptr<DisparityEngine> make_cpu_engine(EngineKind kind, const EngineCo
 DisparityBand band_for_range(const StereoGeometry& g, WorkingRange range);
 
 // The terrain is near a plane at an unknown distance in `range`: a coarse pass (strips downsampled
-// horizontally by a power of two so the band of `range` fits in at most 128 coarse px, StereoSGBM)
-// finds the disparities present at textured pixels; returns a narrow band around them (2nd..98th percentile plus a
-// margin of max(4 px, 2 coarse px, 25% of the spread)), clamped to band_for_range(range). Returns band_for_range(range)
-// when fewer than 5% of the coarse pixels get a disparity. BandEstimator keeps the coarse matcher and its buffers
-// between calls, for the per-frame path (one per thread); estimate_band is the one-off form and builds them each call.
+// horizontally by a power of two so the band of `range` fits in at most 128 coarse px, and to every second
+// row; StereoSGBM 3-way) finds the disparities present at textured pixels; returns a narrow band around
+// them (2nd..98th percentile plus a margin of max(4 px, 2 coarse px, 25% of the spread)), clamped to
+// band_for_range(range). Returns band_for_range(range) when fewer than 5% of the coarse pixels get a
+// disparity. BandEstimator keeps the coarse matcher and its buffers between calls, for the per-frame path
+// (one per thread); estimate_band is the one-off form and builds them each call.
 class BandEstimator {
  public:
   DisparityBand estimate(const cv::Mat& left_strip, const cv::Mat& right_strip, const StereoGeometry& g,
