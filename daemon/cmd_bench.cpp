@@ -113,8 +113,7 @@ int run_bench(const Options& o) {
     throw CLI::ValidationError("--size", "expected WIDTHxHEIGHT between 64x64 and 8192x8192, got '" + o.size + "'");
   p.rig.image_size = *size;
   const SyntheticRenderer renderer(p);
-  std::vector<StereoFrame> frames(static_cast<std::size_t>(o.frames));
-  for (std::size_t i = 0; i < frames.size(); ++i) renderer.render(i, frames[i]);
+  const std::vector<StereoFrame> frames = renderer.render_pairs(static_cast<std::size_t>(o.frames));
   // With --json, stdout carries only the JSON lines.
   std::fprintf(o.json ? stderr : stdout,
                "%dx%d synthetic pairs, truth depth %.2f mm, engine %s, DIC %s, %u hardware threads, %.0f s per run\n",

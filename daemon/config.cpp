@@ -118,14 +118,10 @@ class Section {
   }
   template <typename T>
   static const char* type_name() {
-    if constexpr (std::is_same_v<T, bool>)
-      return "true or false";
-    else if constexpr (std::is_integral_v<T>)
-      return "an integer";
-    else if constexpr (std::is_floating_point_v<T>)
-      return "a number";
-    else
-      return "text";
+    if constexpr (std::is_same_v<T, bool>) return "true or false";
+    else if constexpr (std::is_integral_v<T>) return "an integer";
+    else if constexpr (std::is_floating_point_v<T>) return "a number";
+    else return "text";
   }
 
   YAML::Node node_;
@@ -257,28 +253,20 @@ void read_aravis(Section s, AravisSourceConfig& a) {
       .get<std::string>("right", a.right)
       .parse("pixel_format",
              [&](const std::string& t) {
-               if (t == "mono8")
-                 a.pixel_format = CameraPixelFormat::Mono8;
-               else if (t == "mono16")
-                 a.pixel_format = CameraPixelFormat::Mono16;
-               else if (t == "bayer")
-                 a.pixel_format = CameraPixelFormat::Bayer8;
-               else
-                 return "expected mono8, mono16 or bayer, got '" + t + "'";
+               if (t == "mono8") a.pixel_format = CameraPixelFormat::Mono8;
+               else if (t == "mono16") a.pixel_format = CameraPixelFormat::Mono16;
+               else if (t == "bayer") a.pixel_format = CameraPixelFormat::Bayer8;
+               else return "expected mono8, mono16 or bayer, got '" + t + "'";
                return std::string();
              })
       .get<int>("binning", a.binning, in_range(1, 8))
       .get<double>("fps", a.fps, in_range(0.1, 1000.0))
       .parse("sync",
              [&](const std::string& t) {
-               if (t == "free_run")
-                 a.sync = CameraSync::FreeRun;
-               else if (t == "software_trigger")
-                 a.sync = CameraSync::SoftwareTrigger;
-               else if (t == "hardware_trigger")
-                 a.sync = CameraSync::HardwareTrigger;
-               else
-                 return "expected free_run, software_trigger or hardware_trigger, got '" + t + "'";
+               if (t == "free_run") a.sync = CameraSync::FreeRun;
+               else if (t == "software_trigger") a.sync = CameraSync::SoftwareTrigger;
+               else if (t == "hardware_trigger") a.sync = CameraSync::HardwareTrigger;
+               else return "expected free_run, software_trigger or hardware_trigger, got '" + t + "'";
                return std::string();
              })
       .get<std::string>("trigger_line", a.trigger_line)
@@ -326,14 +314,10 @@ RutdConfig parse_config(const std::string& yaml_text, const std::string& file) {
 
   Section source = top.child("source");
   source.parse("type", [&](const std::string& t) {
-    if (t == "synthetic")
-      c.source = SourceKind::Synthetic;
-    else if (t == "replay")
-      c.source = SourceKind::Replay;
-    else if (t == "aravis")
-      c.source = SourceKind::Aravis;
-    else
-      return "expected synthetic, replay or aravis, got '" + t + "'";
+    if (t == "synthetic") c.source = SourceKind::Synthetic;
+    else if (t == "replay") c.source = SourceKind::Replay;
+    else if (t == "aravis") c.source = SourceKind::Aravis;
+    else return "expected synthetic, replay or aravis, got '" + t + "'";
     return std::string();
   });
   read_synthetic(source.child("synthetic"), c.synthetic, c.synthetic_cycle_frames);

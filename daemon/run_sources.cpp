@@ -95,23 +95,24 @@ std::unique_ptr<FrameSource> make_camera_source(const RutdConfig& c) {
 }
 
 // The synthetic rig: rendered live, or a short cycle rendered once and played at the camera rate.
+// Impossible scene parameters are a start-up error naming source.synthetic.
 std::unique_ptr<FrameSource> make_synthetic_source(const RutdConfig& c) {
-  if (c.synthetic_cycle_frames <= 0) return std::make_unique<SyntheticSource>(c.synthetic);
-  const SyntheticRenderer renderer(c.synthetic);
-  std::vector<StereoFrame> frames(static_cast<std::size_t>(c.synthetic_cycle_frames));
-  for (std::size_t i = 0; i < frames.size(); ++i) renderer.render(i, frames[i]);
-  const auto period = std::chrono::nanoseconds(static_cast<std::int64_t>(1e9 / c.synthetic.fps));
-  return std::make_unique<CyclingSource>(renderer.calibration(), std::move(frames), period);
+  try {
+    if (c.synthetic_cycle_frames <= 0) return std::make_unique<SyntheticSource>(c.synthetic);
+    const SyntheticRenderer renderer(c.synthetic);
+    const auto period = std::chrono::nanoseconds(static_cast<std::int64_t>(1e9 / c.synthetic.fps));
+    return std::make_unique<CyclingSource>(
+        renderer.calibration(), renderer.render_pairs(static_cast<std::size_t>(c.synthetic_cycle_frames)), period);
+  } catch (const std::invalid_argument& e) {
+    throw InputError(c.file, "source.synthetic", e.what());
+  }
 }
 
 }  // namespace
 
 std::unique_ptr<FrameSource> make_source(const RutdConfig& c) {
   switch (c.source) {
-    case SourceKind::Synthetic: try { return make_synthetic_source(c);
-      } catch (const std::invalid_argument& e) {
-        throw InputError(c.file, "source.synthetic", e.what());
-      }
+    case SourceKind::Synthetic: return make_synthetic_source(c);
     case SourceKind::Replay: return std::make_unique<PacedReplaySource>(c.replay.dir, c.replay.paced, c.replay.loop);
     case SourceKind::Aravis: return make_camera_source(c);
   }

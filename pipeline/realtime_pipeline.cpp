@@ -374,10 +374,8 @@ void RealtimePipeline::Impl::run_stage(Stage stage, FrameSlot* slot) noexcept {
     keep = false;
   }
   stage_latency[k].record(monotonic_now_ns() - t0);
-  if (keep)
-    pass_on(static_cast<Stage>(k + 1), slot);
-  else
-    give_back(stage, slot);
+  if (keep) pass_on(static_cast<Stage>(k + 1), slot);
+  else give_back(stage, slot);
 }
 
 void RealtimePipeline::Impl::stage_loop(Stage stage, std::stop_token st) {

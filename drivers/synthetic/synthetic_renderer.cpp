@@ -445,6 +445,12 @@ std::optional<cv::Vec3d> SyntheticRenderer::intersect_left(std::uint64_t index, 
 // ---------------------------------------------------------------------------------------------------
 // Rendering
 
+std::vector<StereoFrame> SyntheticRenderer::render_pairs(std::size_t count) const {
+  std::vector<StereoFrame> pairs(count);
+  for (std::size_t i = 0; i < count; ++i) render(i, pairs[i]);
+  return pairs;
+}
+
 void SyntheticRenderer::render(std::uint64_t index, StereoFrame& out) const {
   const RutTerrain terrain(params_.rut, depth_mm(index));
   const int type = params_.bit_depth == 16 ? CV_16UC1 : CV_8UC1;

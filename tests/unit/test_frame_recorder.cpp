@@ -66,10 +66,8 @@ void fill_pair(StereoFrame& frame, std::uint64_t seq, int type, bool noisy = tru
         h ^= h >> 29;
         const std::uint64_t v =
             noisy ? h : static_cast<std::uint64_t>(x + y) + seq * 3 + static_cast<std::uint64_t>(side);
-        if (type == CV_16UC1)
-          m.at<std::uint16_t>(y, x) = static_cast<std::uint16_t>(noisy ? v : v * 257);
-        else
-          m.at<std::uint8_t>(y, x) = static_cast<std::uint8_t>(v);
+        if (type == CV_16UC1) m.at<std::uint16_t>(y, x) = static_cast<std::uint16_t>(noisy ? v : v * 257);
+        else m.at<std::uint8_t>(y, x) = static_cast<std::uint8_t>(v);
       }
     }
   }

@@ -548,12 +548,7 @@ TEST(RealtimePipeline, FakeStagesAllocateNothingPerFrameWhenLossless) {
 // ---- The real measurer's stages -----------------------------------------------------------------
 
 struct RealRig {
-  RealRig() : renderer((sequential_opencv_under_tsan(), params())) {
-    for (std::uint64_t i = 0; i < 3; ++i) {
-      StereoFrame f;
-      renderer.render(i, f);
-      frames.push_back(f);
-    }
+  RealRig() : renderer((sequential_opencv_under_tsan(), params())), frames(renderer.render_pairs(3)) {
     // The band is estimated once (estimate_band allocates), then fixed as a deployed sensor would.
     StereoMeasurer probe(renderer.calibration(), MeasurerConfig{});
     probe.measure(frames[0].left, frames[0].right);

@@ -96,6 +96,8 @@ class SyntheticRenderer {
   // Fills out.left/out.right (reusing their buffers), seq = index, t_ns = round(index * 1e9 / fps),
   // clock = Monotonic.
   void render(std::uint64_t index, StereoFrame& out) const;
+  // Pairs 0 .. count-1, as render() gives them: the short cycle a CyclingSource plays.
+  std::vector<StereoFrame> render_pairs(std::size_t count) const;
 
   // Exact first intersection of the ray from the left camera centre along `dir` (left camera frame,
   // any length) with frame `index`'s terrain: the hit point in the left camera frame, mm, or nullopt.
