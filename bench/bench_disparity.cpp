@@ -1,10 +1,13 @@
 // Per-strip cost of the CPU disparity engines and of the DIC refinement, on textured strips of
-// 640x48 and 1280x64 px with a 64 px band (the sizes and band of a narrow-band rut strip).
+// 640x48 and 1280x64 px with a 64 px band (the sizes and band of a narrow-band rut strip), and of the
+// rectification of a rendered pair (strip and full frame).
 #include <benchmark/benchmark.h>
 #include <opencv2/imgproc.hpp>
 
 #include "pipeline/dic_refine.hpp"
 #include "pipeline/disparity.hpp"
+#include "pipeline/stereo_geometry.hpp"
+#include "synthetic/synthetic_renderer.hpp"
 
 namespace {
 
@@ -62,6 +65,7 @@ void BM_Dic(benchmark::State& state) {
   const int margin = static_cast<int>(state.range(4));
   params.row_begin = margin;
   params.row_end = static_cast<int>(state.range(3)) - margin;
+  params.column_windows = state.range(5) != 0;
   rutd::DicWorkspace ws;
   rutd::DicStats stats;
   for (auto _ : state) {
@@ -83,16 +87,43 @@ void engine_args(benchmark::internal::Benchmark* b) {
 
 void dic_args(benchmark::internal::Benchmark* b) {
   for (long step : {1, 2}) {
-    b->Args({step, 0, 640, 48, 0});
-    b->Args({step, 0, 1280, 64, 0});
+    b->Args({step, 0, 640, 48, 0, 0});
+    b->Args({step, 0, 1280, 64, 0, 0});
   }
-  // The measurer's default: every column of every other row of a 48-row strip matched with 7 rows of
-  // context on each side.
-  b->Args({1, 2, 640, 62, 7});
-  b->Args({1, 2, 1280, 78, 7});
-  b->ArgNames({"step", "row_step", "width", "rows", "margin"});
+  // Per-pixel windows on every column of every other row of a 48-row strip matched with 7 rows of
+  // context on each side (full-frame mode's grid), and the measurer's strip default: one window per
+  // column spanning the 48 measured rows.
+  for (long columns : {0, 1}) {
+    b->Args({1, 2, 640, 62, 7, columns});
+    b->Args({1, 2, 1280, 78, 7, columns});
+  }
+  b->ArgNames({"step", "row_step", "width", "rows", "margin", "columns"});
 }
 
+// Both raw images of a rendered 8-bit pair to rectified strips: `rows` centred rows (the default strip
+// with its matching margin is 62 rows of 480) or the full frame.
+void BM_Rectify(benchmark::State& state) {
+  rutd::SynthConfig config;
+  config.rig.image_size = cv::Size(static_cast<int>(state.range(0)), static_cast<int>(state.range(1)));
+  const rutd::SyntheticRenderer renderer(config);
+  rutd::StereoFrame frame;
+  renderer.render(0, frame);
+  const int rows = static_cast<int>(state.range(2));
+  const rutd::StereoGeometry geometry(renderer.calibration(),
+                                      rutd::StripRoi{(config.rig.image_size.height - rows) / 2, rows});
+  cv::Mat left, right;
+  for (auto _ : state) {
+    geometry.rectify(frame.left, frame.right, left, right);
+    benchmark::DoNotOptimize(left.data);
+  }
+}
+
+BENCHMARK(BM_Rectify)
+    ->Args({640, 480, 62})
+    ->Args({640, 480, 480})
+    ->Args({1280, 1024, 78})
+    ->ArgNames({"width", "height", "rows"})
+    ->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_Engine)->Apply(engine_args)->Unit(benchmark::kMillisecond);
 // CPU time: of all threads (the refinement splits rows across OpenCV's workers).
 BENCHMARK(BM_Dic)->Apply(dic_args)->MeasureProcessCPUTime()->UseRealTime()->Unit(benchmark::kMillisecond);

@@ -87,14 +87,25 @@ struct Layout {
   bool avx2 = false;  // sample with 8-lane AVX2 vectors
 };
 
+// The middle row of a column window over rows [row_begin, row_end).
+int column_centre(int row_begin, int row_end) { return (row_begin + row_end - 1) / 2; }
+
 Layout make_layout(const cv::Mat& strip, const DicConfig& p, int row_begin, int row_end) {
   Layout l;
   l.cols = strip.cols;
   l.h = p.half_window;
-  l.hh = p.half_height > 0 ? p.half_height : p.half_window;
   l.vectors = (2 * l.h + 1 + 3) / 4;
-  l.table_row0 = std::max(0, row_begin - l.hh);
-  l.table_rows = std::max(0, std::min(strip.rows, row_end + l.hh) - l.table_row0);
+  if (p.column_windows) {
+    // The window is the measured rows: nothing outside them is read.
+    const int yc = column_centre(row_begin, row_end);
+    l.hh = std::max(1, std::max(yc - row_begin, row_end - 1 - yc));
+    l.table_row0 = row_begin;
+    l.table_rows = row_end - row_begin;
+  } else {
+    l.hh = p.half_height > 0 ? p.half_height : p.half_window;
+    l.table_row0 = std::max(0, row_begin - l.hh);
+    l.table_rows = std::max(0, std::min(strip.rows, row_end + l.hh) - l.table_row0);
+  }
   // Lane j of pixel x reads index x + j < cols + 4 vectors.
   l.stride = (l.cols + l.h + 4 * l.vectors + 3) / 4 * 4;
 #if RUTD_DIC_AVX2
@@ -600,6 +611,7 @@ struct PixelResult {
   float disparity = kNaN;
   int iterations = 0;
   Warp sampled;  // the warp of the last iteration's samples, a warm start for the next pixel of the row
+  Warp final;    // the converged warp
 };
 
 // Inverse-compositional Gauss-Newton on the ZNSSD criterion (Pan et al., 2013) from disparity d0.
@@ -662,6 +674,7 @@ bool refine_pixel(const DicWorkspace& ws, const Layout& l, const float* sums, co
     if (converged(du * du + l.h * l.h * dux * dux + l.hh * l.hh * duy * duy)) {
       out.disparity = static_cast<float>(-wp.c);
       out.iterations = it;
+      out.final = wp;
       if (p.max_sigma_px > 0.0) {
         const int unknowns = p.first_order ? 3 : 1;
         if (n <= unknowns) return false;
@@ -731,6 +744,72 @@ void refine_rows(const DicWorkspace& ws, const Layout& l, cv::Mat& disparity, co
   }
 }
 
+// Column windows: the initial disparity of each column, the median of its valid values in rows
+// [row_begin, row_end); NaN when fewer than a quarter of them are valid.
+void column_starts(const cv::Mat& disparity, int row_begin, int row_end, DicWorkspace& ws) {
+  const int rows = row_end - row_begin;
+  ws.column_start.assign(static_cast<std::size_t>(disparity.cols), kNaN);
+  ws.column_values.resize(static_cast<std::size_t>(rows));
+  for (int x = 0; x < disparity.cols; ++x) {
+    std::size_t n = 0;
+    for (int y = row_begin; y < row_end; ++y) {
+      const float d = disparity.ptr<float>(y)[x];
+      if (std::isfinite(d)) ws.column_values[n++] = d;
+    }
+    if (4 * static_cast<int>(n) < rows || n == 0) continue;
+    const auto mid = ws.column_values.begin() + static_cast<std::ptrdiff_t>(n / 2);
+    std::nth_element(ws.column_values.begin(), mid, ws.column_values.begin() + static_cast<std::ptrdiff_t>(n));
+    ws.column_start[static_cast<std::size_t>(x)] = *mid;
+  }
+}
+
+// Column windows over rows [y0, y1] for columns [x_begin, x_end), with the column sums of the grid row
+// yc (shared by all stripes, read-only here). Writes the fitted disparity into every row of the column,
+// or NaN.
+template <int V>
+void refine_columns(const DicWorkspace& ws, const Layout& l, const float* sums, cv::Mat& disparity,
+                    const DicConfig& params, int y0, int y1, int x_begin, int x_end, DicScratch& scratch) {
+  const Lanes<V> lanes(l.h);
+  const int yc = column_centre(y0, y1 + 1);
+  bool have_previous = false;
+  Warp previous;
+  ColumnCache cache{scratch.target_sums.data()};
+  for (int x = x_begin; x < x_end; ++x) {
+    const float d0 = ws.column_start[static_cast<std::size_t>(x)];
+    bool ok = false;
+    PixelResult result;
+    if (std::isfinite(d0)) {
+      Warp start{1.0, 0.0, -static_cast<double>(d0)};
+      const bool warm = have_previous && std::abs(-previous.c - d0) < kWarmStartAgreementPx;
+      if (warm) start = previous;
+      const Window w{std::max(0, x - l.h), std::min(l.cols - 1, x + l.h), y0, y1};
+      ok = refine_pixel(ws, l, sums, lanes, x, yc, w, d0, start, warm, params, cache, scratch.starts.data(), result);
+    }
+    have_previous = ok;
+    if (ok) {
+      previous = result.sampled;
+      previous.c += previous.a - 1.0;
+      ++scratch.stats.refined;
+      scratch.iterations += result.iterations;
+      for (int y = y0; y <= y1; ++y)
+        disparity.ptr<float>(y)[x] = static_cast<float>(-(result.final.c + result.final.b * (y - yc)));
+    } else {
+      if (std::isfinite(d0)) ++scratch.stats.rejected;
+      for (int y = y0; y <= y1; ++y) disparity.ptr<float>(y)[x] = kNaN;
+    }
+  }
+}
+
+using ColumnsFunction = void (*)(const DicWorkspace&, const Layout&, const float*, cv::Mat&, const DicConfig&, int, int,
+                                 int, int, DicScratch&);
+
+template <int... V>
+ColumnsFunction columns_function(int vectors, std::integer_sequence<int, V...>) {
+  ColumnsFunction f = nullptr;
+  ((vectors == V + 1 ? (f = &refine_columns<V + 1>, 0) : 0), ...);
+  return f;
+}
+
 using RowsFunction = void (*)(const DicWorkspace&, const Layout&, cv::Mat&, const DicConfig&, int, int, DicScratch&);
 
 template <int... V>
@@ -771,7 +850,9 @@ DicStats refine_disparity_dic(const cv::Mat& left_strip, const cv::Mat& right_st
   ws.left_dx.create(std::max(1, layout.table_rows), layout.stride, CV_32FC1);
   ws.right_poly.create(std::max(1, layout.table_rows), 4 * layout.cols, CV_32FC1);
 
-  const int stripes = params.parallel ? std::max(1, std::min(cv::getNumThreads(), row_end - row_begin)) : 1;
+  // Row stripes, or with column windows column stripes (the rows are one window).
+  const int items = params.column_windows ? disparity.cols : row_end - row_begin;
+  const int stripes = params.parallel ? std::max(1, std::min(cv::getNumThreads(), items)) : 1;
   if (ws.scratch.size() < static_cast<std::size_t>(stripes)) ws.scratch.resize(static_cast<std::size_t>(stripes));
   for (int s = 0; s < stripes; ++s) {
     DicScratch& sc = ws.scratch[static_cast<std::size_t>(s)];
@@ -790,11 +871,24 @@ DicStats refine_disparity_dic(const cv::Mat& left_strip, const cv::Mat& right_st
     for (int q = a; q < b; ++q)
       build_table_rows(left_strip, right_strip, 4 * q, std::min(4, layout.table_rows - 4 * q), layout, ws, buffer);
   });
-  // Interleaved rows per stripe would share cache lines of `disparity`; contiguous blocks do not.
-  const RowsFunction refine = rows_function(layout.vectors, std::make_integer_sequence<int, kMaxVectors>{});
-  for_stripes(stripes, row_end - row_begin, [&](int s, int a, int b) {
-    refine(ws, layout, disparity, params, row_begin + a, row_begin + b, ws.scratch[static_cast<std::size_t>(s)]);
-  });
+  if (params.column_windows && row_end > row_begin) {
+    column_starts(disparity, row_begin, row_end, ws);
+    // One grid row: the sums are computed once and shared by the stripes.
+    float* sums = ws.scratch[0].column_sums.data();
+    column_sums(ws, layout, row_begin, row_end - 1, column_centre(row_begin, row_end), sums);
+    const ColumnsFunction refine_cols =
+        columns_function(layout.vectors, std::make_integer_sequence<int, kMaxVectors>{});
+    for_stripes(stripes, disparity.cols, [&](int s, int a, int b) {
+      refine_cols(ws, layout, sums, disparity, params, row_begin, row_end - 1, a, b,
+                  ws.scratch[static_cast<std::size_t>(s)]);
+    });
+  } else {
+    // Interleaved rows per stripe would share cache lines of `disparity`; contiguous blocks do not.
+    const RowsFunction refine = rows_function(layout.vectors, std::make_integer_sequence<int, kMaxVectors>{});
+    for_stripes(stripes, row_end - row_begin, [&](int s, int a, int b) {
+      refine(ws, layout, disparity, params, row_begin + a, row_begin + b, ws.scratch[static_cast<std::size_t>(s)]);
+    });
+  }
   DicStats stats;
   long iterations = 0;
   for (int s = 0; s < stripes; ++s) {

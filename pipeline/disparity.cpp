@@ -113,6 +113,36 @@ DisparityBand BandEstimator::estimate(const cv::Mat& left_strip, const cv::Mat& 
   return band_between(band_lo, band_hi);
 }
 
+std::optional<DisparityBand> BandTracker::band() const {
+  if (frames_ <= 0 || frames_ >= kMaxFrames) return std::nullopt;
+  return band_;
+}
+
+void BandTracker::update(DisparityBand band, bool estimated, const cv::Mat& disparity, int row_begin, int row_end) {
+  // Every second row and column: a percentile and a share, which a quarter of the pixels give as well.
+  values_.clear();
+  std::size_t seen = 0;
+  for (int r = row_begin; r < row_end; r += 2) {
+    const float* row = disparity.ptr<float>(r);
+    for (int x = 0; x < disparity.cols; x += 2, ++seen)
+      if (std::isfinite(row[x])) values_.push_back(row[x]);
+  }
+  const double valid = seen > 0 ? static_cast<double>(values_.size()) / static_cast<double>(seen) : 0.0;
+  if (estimated) {
+    band_ = band;
+    frames_ = 0;
+    first_valid_ = valid;
+  }
+  if (values_.empty() || valid < 0.25 || valid < 0.8 * first_valid_) {
+    frames_ = 0;
+    return;
+  }
+  const double lo = percentile(values_, kLowPercentile), hi = percentile(values_, kHighPercentile);
+  const double band_hi = band_.min_disparity + band_.num_disparities - 1;
+  const bool inside = lo >= band_.min_disparity + kEdgePx && hi <= band_hi - kEdgePx;
+  frames_ = inside ? frames_ + 1 : 0;
+}
+
 DisparityBand estimate_band(const cv::Mat& left_strip, const cv::Mat& right_strip, const StereoGeometry& g,
                             WorkingRange range) {
   BandEstimator estimator;

@@ -6,6 +6,8 @@
 #include <stdexcept>
 #include <string>
 
+#include <opencv2/imgproc.hpp>
+
 namespace rutd {
 namespace {
 
@@ -13,10 +15,15 @@ using Clock = std::chrono::steady_clock;
 
 double ms_since(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
 
+bool uses_column_windows(const MeasurerConfig& config, StripRoi strip) {
+  return config.dic && config.column_windows && strip.rows <= MeasurerConfig::kMaxColumnWindowRows;
+}
+
 // Rows matched beyond the measured strip on each side, so the engines' blocks and the DIC window see
-// real image rows rather than a replicated border.
-int margin_for(const MeasurerConfig& config) {
+// real image rows rather than a replicated border. Column windows read only the measured rows.
+int margin_for(const MeasurerConfig& config, StripRoi strip) {
   const int block = config.engine_config.block_size > 0 ? config.engine_config.block_size : 11;
+  if (uses_column_windows(config, strip)) return block / 2 + 2;
   return std::max({block / 2, config.dic_config.half_window, config.dic_config.half_height}) + 2;
 }
 
@@ -33,7 +40,7 @@ StripRoi measured_strip(const StereoCalibration& calibration, const MeasurerConf
 
 StripRoi matched_strip(const StereoCalibration& calibration, const MeasurerConfig& config) {
   const StripRoi strip = measured_strip(calibration, config);
-  const int margin = margin_for(config);
+  const int margin = margin_for(config, strip);
   const int row0 = std::max(0, strip.row0 - margin);
   const int row1 = std::min(calibration.image_size.height, strip.row0 + strip.rows + margin);
   return StripRoi{row0, row1 - row0};
@@ -72,22 +79,72 @@ bool StereoMeasurer::rectify(FrameWork& w) const {
   return true;
 }
 
+namespace {
+
+// Rows averaged in pairs (2k, 2k + 1): rectified rows stay epipolar lines, so the binned strips match as
+// the originals do, in half the rows. An odd last row is dropped.
+void bin_rows(const cv::Mat& strip, cv::Mat& binned) {
+  cv::resize(strip, binned, cv::Size(strip.cols, std::max(1, strip.rows / 2)), 0, 0, cv::INTER_AREA);
+}
+
+// Row y of `disparity` (rows x binned.cols) takes binned row y / 2.
+void unbin_rows(const cv::Mat& binned, int rows, cv::Mat& disparity) {
+  disparity.create(rows, binned.cols, CV_32FC1);
+  for (int y = 0; y < rows; ++y) binned.row(std::min(y / 2, binned.rows - 1)).copyTo(disparity.row(y));
+}
+
+}  // namespace
+
 void StereoMeasurer::match(FrameWork& w, MatchContext& context) const {
   auto t0 = Clock::now();
-  w.diag.band = config_.fixed_band ? *config_.fixed_band
-                                   : context.band.estimate(w.left_strip, w.right_strip, geometry_, config_.range);
+  std::optional<DisparityBand> kept = config_.fixed_band ? config_.fixed_band : context.band_tracker.band();
+  w.diag.band_estimated = !kept;
+  w.diag.band = kept ? *kept : context.band.estimate(w.left_strip, w.right_strip, geometry_, config_.range);
   w.diag.band_ms = ms_since(t0);
-
+  match_in_band(w, context);
+  if (config_.fixed_band) return;
+  context.band_tracker.update(w.diag.band, w.diag.band_estimated, w.disparity,
+                              config_.strip.row0 - geometry_.roi().row0,
+                              config_.strip.row0 - geometry_.roi().row0 + config_.strip.rows);
+  if (w.diag.band_estimated || context.band_tracker.band()) return;
+  // The last frame's band no longer fits this one (the terrain jumped): match it again in a band
+  // estimated for it, so that a kept band never costs a measurement.
   t0 = Clock::now();
-  context.engine->compute(w.left_strip, w.right_strip, w.diag.band, w.disparity);
+  w.diag.band_estimated = true;
+  w.diag.band = context.band.estimate(w.left_strip, w.right_strip, geometry_, config_.range);
+  w.diag.band_ms += ms_since(t0);
+  const MeasurementDiagnostics first = w.diag;
+  match_in_band(w, context);
+  w.diag.disparity_ms += first.disparity_ms;
+  w.diag.dic_ms += first.dic_ms;
+  context.band_tracker.update(w.diag.band, true, w.disparity, config_.strip.row0 - geometry_.roi().row0,
+                              config_.strip.row0 - geometry_.roi().row0 + config_.strip.rows);
+}
+
+void StereoMeasurer::match_in_band(FrameWork& w, MatchContext& context) const {
+  // Only the measured rows are refined; the margin rows were matched as context for the windows.
+  DicConfig dic = config_.dic_config;
+  dic.row_begin = config_.strip.row0 - geometry_.roi().row0;
+  dic.row_end = dic.row_begin + config_.strip.rows;
+  dic.column_windows = uses_column_windows(config_, config_.strip);
+
+  auto t0 = Clock::now();
+  if (dic.column_windows) {
+    // A column window needs only a start within its convergence range (the median of its column), so
+    // the engine matches the strips binned 2:1 along columns: half the work.
+    bin_rows(w.left_strip, context.left_binned);
+    bin_rows(w.right_strip, context.right_binned);
+    context.engine->compute(context.left_binned, context.right_binned, w.diag.band, context.disparity_binned);
+    unbin_rows(context.disparity_binned, w.left_strip.rows, w.disparity);
+  } else {
+    context.engine->compute(w.left_strip, w.right_strip, w.diag.band, w.disparity);
+  }
   w.diag.disparity_ms = ms_since(t0);
 
+  w.diag.dic = DicStats{};
+  w.diag.dic_ms = 0;
   if (config_.dic) {
     t0 = Clock::now();
-    // Only the measured rows are refined; the margin rows were matched as context for the windows.
-    DicConfig dic = config_.dic_config;
-    dic.row_begin = config_.strip.row0 - geometry_.roi().row0;
-    dic.row_end = dic.row_begin + config_.strip.rows;
     w.diag.dic = refine_disparity_dic(w.left_strip, w.right_strip, w.disparity, dic, context.dic);
     w.diag.dic_ms = ms_since(t0);
   }

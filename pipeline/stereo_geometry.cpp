@@ -9,6 +9,7 @@
 #include <vector>
 
 #include <opencv2/calib3d.hpp>
+#include <opencv2/core/hal/intrin.hpp>
 #include <opencv2/imgproc.hpp>
 
 namespace rutd {
@@ -77,47 +78,122 @@ inline void bspline_weights(float t, float w[4]) {
   w[3] = t3 / 6.0f;
 }
 
-// Resamples `raw` at the float positions of `map` (CV_32FC2) into CV_32F with the cubic B-spline as a
-// smoothing kernel (no prefilter): a symmetric low-pass of about 0.6 px whose response hardly changes
-// with the fractional position. Why not an interpolating kernel: OpenCV's remap quantises positions to
-// 1/32 px, and every interpolating kernel (bilinear worst, Keys' cubic less) shifts fine texture by an
-// amount that depends on the fractional position. The rectification maps of the two cameras have
-// different fractions that stay nearly constant down a column, so that error does not average out
-// along the strip: it biased rendered rut depths by up to 0.9 mm with bilinear and Keys' cubic
-// resampling, against 0.2 mm with this kernel (the same smoothing applied to both images is harmless
-// to matching; see Pan et al., bias reduction of DIC by Gaussian pre-filtering). Edges are replicated.
-template <typename Pixel>
-void remap_bspline(const cv::Mat& raw, const cv::Mat& map, cv::Mat& out) {
-  out.create(map.size(), CV_32FC1);
-  const int max_x = raw.cols - 1, max_y = raw.rows - 1;
-  for (int r = 0; r < map.rows; ++r) {
-    const cv::Vec2f* m = map.ptr<cv::Vec2f>(r);
-    float* o = out.ptr<float>(r);
-    for (int c = 0; c < map.cols; ++c) {
-      const float x = std::clamp(m[c][0], 0.0f, static_cast<float>(max_x));
-      const float y = std::clamp(m[c][1], 0.0f, static_cast<float>(max_y));
+// Why a cubic B-spline, and not OpenCV's remap: the strip is resampled at exact float positions with
+// the cubic B-spline as a smoothing kernel (no prefilter): a symmetric low-pass of about 0.6 px whose
+// response hardly changes with the fractional position. OpenCV's remap quantises positions to 1/32 px,
+// and every interpolating kernel (bilinear worst, Keys' cubic less) shifts fine texture by an amount
+// that depends on the fractional position. The rectification maps of the two cameras have different
+// fractions that stay nearly constant down a column, so that error does not average out along the
+// strip: it biased rendered rut depths by up to 0.9 mm with bilinear and Keys' cubic resampling,
+// against 0.2 mm with this kernel (the same smoothing applied to both images is harmless to matching;
+// see Pan et al., bias reduction of DIC by Gaussian pre-filtering). Edges are replicated.
+//
+// The positions never change, so the taps and weights are computed once (make_taps); a pixel then
+// costs 16 loads and multiply-adds.
+template <typename Tap>
+std::vector<Tap> make_taps(const cv::Mat& map_x, const cv::Mat& map_y, cv::Size raw) {
+  std::vector<Tap> taps(map_x.total());
+  const int max_x = raw.width - 1, max_y = raw.height - 1;
+  std::size_t i = 0;
+  for (int r = 0; r < map_x.rows; ++r) {
+    const float* mx = map_x.ptr<float>(r);
+    const float* my = map_y.ptr<float>(r);
+    for (int c = 0; c < map_x.cols; ++c, ++i) {
+      const float x = std::clamp(mx[c], 0.0f, static_cast<float>(max_x));
+      const float y = std::clamp(my[c], 0.0f, static_cast<float>(max_y));
       const int x0 = static_cast<int>(x), y0 = static_cast<int>(y);
-      float wx[4], wy[4];
-      bspline_weights(x - static_cast<float>(x0), wx);
-      bspline_weights(y - static_cast<float>(y0), wy);
-      int xs[4];
-      for (int k = 0; k < 4; ++k) xs[k] = std::clamp(x0 - 1 + k, 0, max_x);
-      float sum = 0.0f;
-      for (int j = 0; j < 4; ++j) {
-        const Pixel* p = raw.ptr<Pixel>(std::clamp(y0 - 1 + j, 0, max_y));
-        sum += wy[j] * (wx[0] * p[xs[0]] + wx[1] * p[xs[1]] + wx[2] * p[xs[2]] + wx[3] * p[xs[3]]);
-      }
-      o[c] = sum;
+      Tap& t = taps[i];
+      t.x = x0 - 1;
+      t.y = y0 - 1;
+      bspline_weights(x - static_cast<float>(x0), t.wx);
+      bspline_weights(y - static_cast<float>(y0), t.wy);
     }
+  }
+  return taps;
+}
+
+// One strip pixel from its taps; the block is clamped to the raw image only where it leaves it.
+template <typename Pixel, typename Tap>
+inline float resample_pixel(const cv::Mat& raw, const Tap& t) {
+  const int max_x = raw.cols - 1, max_y = raw.rows - 1;
+  float sum = 0.0f;
+  if (t.x >= 0 && t.x + 3 <= max_x && t.y >= 0 && t.y + 3 <= max_y) {
+    const std::size_t step = raw.step1();
+    const Pixel* p = raw.ptr<Pixel>(t.y) + t.x;
+    for (int j = 0; j < 4; ++j, p += step)
+      sum += t.wy[j] * (t.wx[0] * p[0] + t.wx[1] * p[1] + t.wx[2] * p[2] + t.wx[3] * p[3]);
+    return sum;
+  }
+  int xs[4];
+  for (int k = 0; k < 4; ++k) xs[k] = std::clamp(t.x + k, 0, max_x);
+  for (int j = 0; j < 4; ++j) {
+    const Pixel* p = raw.ptr<Pixel>(std::clamp(t.y + j, 0, max_y));
+    sum += t.wy[j] * (t.wx[0] * p[xs[0]] + t.wx[1] * p[xs[1]] + t.wx[2] * p[xs[2]] + t.wx[3] * p[xs[3]]);
+  }
+  return sum;
+}
+
+// Four raw pixels of a row as floats.
+inline cv::v_float32x4 load4(const std::uint8_t* p) {
+  return cv::v_cvt_f32(cv::v_reinterpret_as_s32(cv::v_load_expand_q(p)));
+}
+inline cv::v_float32x4 load4(const std::uint16_t* p) {
+  return cv::v_cvt_f32(cv::v_reinterpret_as_s32(cv::v_load_expand(p)));
+}
+
+// One interior pixel as a vector whose lanes sum to the result: lane i holds sum_j wy_j wx_i p(j, i).
+template <typename Pixel, typename Tap>
+inline cv::v_float32x4 resample_lanes(const Pixel* p, std::size_t step, const Tap& t) {
+  const cv::v_float32x4 wx = cv::v_load(t.wx);
+  cv::v_float32x4 acc = load4(p) * cv::v_setall_f32(t.wy[0]);
+  acc = cv::v_muladd(load4(p + step), cv::v_setall_f32(t.wy[1]), acc);
+  acc = cv::v_muladd(load4(p + 2 * step), cv::v_setall_f32(t.wy[2]), acc);
+  acc = cv::v_muladd(load4(p + 3 * step), cv::v_setall_f32(t.wy[3]), acc);
+  return acc * wx;
+}
+
+template <typename Tap>
+inline bool interior(const Tap& t, int max_x, int max_y) {
+  return t.x >= 0 && t.x + 3 <= max_x && t.y >= 0 && t.y + 3 <= max_y;
+}
+
+// Resamples one strip row into floats, four pixels per step (one horizontal reduction for four);
+// groups that touch the raw border go through the clamped scalar path.
+template <typename Pixel, typename Tap>
+void resample_row(const cv::Mat& raw, const Tap* t, int cols, float* o) {
+  const int max_x = raw.cols - 1, max_y = raw.rows - 1;
+  const std::size_t step = raw.step1();
+  const auto block = [&](const Tap& tap) { return raw.ptr<Pixel>(tap.y) + tap.x; };
+  int c = 0;
+  for (; c + 4 <= cols; c += 4, t += 4) {
+    if (interior(t[0], max_x, max_y) && interior(t[1], max_x, max_y) && interior(t[2], max_x, max_y) &&
+        interior(t[3], max_x, max_y)) {
+      cv::v_store(o + c,
+                  cv::v_reduce_sum4(resample_lanes(block(t[0]), step, t[0]), resample_lanes(block(t[1]), step, t[1]),
+                                    resample_lanes(block(t[2]), step, t[2]), resample_lanes(block(t[3]), step, t[3])));
+    } else {
+      for (int k = 0; k < 4; ++k) o[c + k] = resample_pixel<Pixel>(raw, t[k]);
+    }
+  }
+  for (; c < cols; ++c, ++t) o[c] = resample_pixel<Pixel>(raw, *t);
+}
+
+// 8-bit raw: straight to the 8-bit strip, rounded as convertTo rounds. `row` is one row of float scratch.
+template <typename Tap>
+void resample_u8(const cv::Mat& raw, const std::vector<Tap>& taps, cv::Mat& out, std::vector<float>& row) {
+  row.resize(static_cast<std::size_t>(out.cols));
+  for (int r = 0; r < out.rows; ++r) {
+    resample_row<std::uint8_t>(raw, taps.data() + static_cast<std::size_t>(r) * out.cols, out.cols, row.data());
+    std::uint8_t* o = out.ptr<std::uint8_t>(r);
+    for (int c = 0; c < out.cols; ++c) o[c] = cv::saturate_cast<std::uint8_t>(row[static_cast<std::size_t>(c)]);
   }
 }
 
-void remap_strip(const cv::Mat& raw, const cv::Mat& map, cv::Mat& out) {
-  if (raw.type() == CV_8UC1) {
-    remap_bspline<std::uint8_t>(raw, map, out);
-  } else {
-    remap_bspline<std::uint16_t>(raw, map, out);
-  }
+// 16-bit raw: float, scaled to 8 bits by the caller once both strips are known.
+template <typename Tap>
+void resample_u16(const cv::Mat& raw, const std::vector<Tap>& taps, cv::Mat& out) {
+  for (int r = 0; r < out.rows; ++r)
+    resample_row<std::uint16_t>(raw, taps.data() + static_cast<std::size_t>(r) * out.cols, out.cols, out.ptr<float>(r));
 }
 
 }  // namespace
@@ -146,9 +222,9 @@ StereoGeometry::StereoGeometry(const StereoCalibration& calibration, StripRoi ro
   }
   cv::Mat x, y;
   strip_maps(calibration.M1, calibration.D1, r.R1, r.P1, roi_, rectified_size_.width, CV_32FC1, x, y);
-  cv::merge(std::vector<cv::Mat>{x, y}, left_map_);
+  left_taps_ = make_taps<SplineTap>(x, y, raw_size_);
   strip_maps(calibration.M2, calibration.D2, r.R2, r.P2, roi_, rectified_size_.width, CV_32FC1, x, y);
-  cv::merge(std::vector<cv::Mat>{x, y}, right_map_);
+  right_taps_ = make_taps<SplineTap>(x, y, raw_size_);
 }
 
 double StereoGeometry::disparity_at(double z_mm) const {
@@ -167,19 +243,27 @@ void StereoGeometry::rectify(const cv::Mat& left_raw, const cv::Mat& right_raw, 
       (type != CV_8UC1 && type != CV_16UC1)) {
     throw std::invalid_argument("rectify: raw images must both be CV_8UC1 or CV_16UC1 of the calibration size");
   }
-  // One scratch pair per thread keeps this const method thread-safe and allocation-free after the first
-  // frame of each thread.
-  thread_local cv::Mat left_f, right_f;
-  remap_strip(left_raw, left_map_, left_f);
-  remap_strip(right_raw, right_map_, right_f);
-  double scale = 1.0;
-  if (type == CV_16UC1) {
-    double max_left = 0, max_right = 0;
-    cv::minMaxLoc(left_f, nullptr, &max_left);
-    cv::minMaxLoc(right_f, nullptr, &max_right);
-    const double brightest = std::max(max_left, max_right);
-    if (brightest > 255.0) scale = 255.0 / brightest;
+  const cv::Size strip(rectified_size_.width, roi_.rows);
+  left_strip.create(strip, CV_8UC1);
+  right_strip.create(strip, CV_8UC1);
+  // Scratch per thread keeps this const method thread-safe and allocation-free after the first frame of
+  // each thread.
+  if (type == CV_8UC1) {
+    thread_local std::vector<float> row;
+    resample_u8(left_raw, left_taps_, left_strip, row);
+    resample_u8(right_raw, right_taps_, right_strip, row);
+    return;
   }
+  thread_local cv::Mat left_f, right_f;
+  left_f.create(strip, CV_32FC1);
+  right_f.create(strip, CV_32FC1);
+  resample_u16(left_raw, left_taps_, left_f);
+  resample_u16(right_raw, right_taps_, right_f);
+  double max_left = 0, max_right = 0;
+  cv::minMaxLoc(left_f, nullptr, &max_left);
+  cv::minMaxLoc(right_f, nullptr, &max_right);
+  const double brightest = std::max(max_left, max_right);
+  const double scale = brightest > 255.0 ? 255.0 / brightest : 1.0;
   left_f.convertTo(left_strip, CV_8U, scale);
   right_f.convertTo(right_strip, CV_8U, scale);
 }

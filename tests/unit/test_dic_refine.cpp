@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <limits>
 #include <random>
 #include <string>
 #include <vector>
@@ -42,17 +43,19 @@ double sinc(double u) { return std::abs(u) < 1e-12 ? 1.0 : std::sin(u) / u; }
 
 // Pixel (x, y) of a view in which texture coordinate s = scale * x + offset (rows unchanged): the
 // texture integrated over the pixel's unit square, plus noise, quantised.
-cv::Mat render(const std::vector<Wave>& waves, cv::Size size, double scale, double offset, double noise,
-               unsigned seed) {
+// offset_per_row shifts row y by offset_per_row * y more.
+cv::Mat render(const std::vector<Wave>& waves, cv::Size size, double scale, double offset, double noise, unsigned seed,
+               double offset_per_row = 0.0) {
   std::mt19937 rng(seed);
   std::normal_distribution<double> gauss(0.0, noise);
   cv::Mat image(size, CV_8UC1);
   for (int y = 0; y < size.height; ++y) {
+    const double row_offset = offset + offset_per_row * y;
     for (int x = 0; x < size.width; ++x) {
       double v = 128.0;
       for (const Wave& w : waves) {
         const double kx = w.kx * scale;  // frequency along the view's x
-        v += w.amplitude * std::sin(kx * x + w.kx * offset + w.ky * y + w.phase) * sinc(kx / 2) * sinc(w.ky / 2);
+        v += w.amplitude * std::sin(kx * x + w.kx * row_offset + w.ky * y + w.phase) * sinc(kx / 2) * sinc(w.ky / 2);
       }
       image.at<std::uint8_t>(y, x) = cv::saturate_cast<std::uint8_t>(v + gauss(rng));
     }
@@ -65,10 +68,11 @@ cv::Mat render(const std::vector<Wave>& waves, cv::Size size, double scale, doub
 struct Pair {
   cv::Mat left, right;
 };
-Pair render_pair(double d0, double slope, cv::Size size, unsigned seed, double noise = 0.7) {
+// With slope_y, d = d0 + slope * s + slope_y * y (terrain sloping down the strip too).
+Pair render_pair(double d0, double slope, cv::Size size, unsigned seed, double noise = 0.7, double slope_y = 0.0) {
   const auto waves = random_texture(seed);
   return {render(waves, size, 1.0, 0.0, noise, seed + 1),
-          render(waves, size, 1.0 / (1.0 - slope), d0 / (1.0 - slope), noise, seed + 2)};
+          render(waves, size, 1.0 / (1.0 - slope), d0 / (1.0 - slope), noise, seed + 2, slope_y / (1.0 - slope))};
 }
 
 struct Error {
@@ -270,6 +274,88 @@ TEST(DicRefine, WindowShapesStepsRowsAndBordersMeetTheTruth) {
       }
     }
   }
+}
+
+// Strip mode: one window per column over the measured rows [7, 55) of a 62-row strip, on disparity
+// sloping across and down the strip. Every measured row gets the column's fitted d(y); the margin rows
+// stay NaN.
+TEST(DicRefine, ColumnWindowsFitTheDisparityDownEachColumn) {
+  const cv::Size strip(320, 62);
+  const int row_begin = 7, row_end = 55;
+  auto sgbm = make_cpu_engine(EngineKind::Sgbm);
+  DicWorkspace ws;
+  int cases = 0;
+  for (const double slope : {0.0, 0.08}) {
+    for (const double slope_y : {0.0, -0.04, 0.06}) {
+      const double d0 = 20.35 + 0.3 * cases;
+      const Pair pair = render_pair(d0, slope, strip, 23 + cases, 0.7, slope_y);
+      cv::Mat disparity;
+      sgbm->compute(pair.left, pair.right, {16, 48}, disparity);
+      DicConfig params;
+      params.column_windows = true;
+      params.row_begin = row_begin;
+      params.row_end = row_end;
+      const DicStats stats = refine_disparity_dic(pair.left, pair.right, disparity, params, ws);
+      Error e;
+      int margin_valid = 0, columns = 0;
+      for (int x = 64; x < strip.width; ++x) {
+        bool column_valid = true;
+        for (int y = 0; y < strip.height; ++y) {
+          const float d = disparity.at<float>(y, x);
+          if (y < row_begin || y >= row_end) {
+            margin_valid += std::isfinite(d);
+            continue;
+          }
+          column_valid = column_valid && std::isfinite(d);
+          if (!std::isfinite(d)) continue;
+          const double err = d - (d0 + slope * x + slope_y * y);
+          e.mean += err;
+          e.rms += err * err;
+          ++e.count;
+        }
+        columns += column_valid;
+      }
+      e.mean /= std::max(1, e.count);
+      e.rms = std::sqrt(e.rms / std::max(1, e.count));
+      std::printf("slope %.2f slope_y %+.2f: bias %+.4f rms %.4f, %d of %d columns, %d refined %d rejected, %.2f it\n",
+                  slope, slope_y, e.mean, e.rms, columns, strip.width - 64, stats.refined, stats.rejected,
+                  stats.mean_iterations);
+      const std::string what = "slope " + std::to_string(slope) + " slope_y " + std::to_string(slope_y);
+      EXPECT_EQ(margin_valid, 0) << what;
+      EXPECT_GT(columns, 0.95 * (strip.width - 64)) << what;
+      EXPECT_EQ(e.count, columns * (row_end - row_begin)) << what;  // whole columns or nothing
+      EXPECT_LT(std::abs(e.mean), 0.01) << what;
+      EXPECT_LT(e.rms, 0.03) << what;
+      ++cases;
+    }
+  }
+  EXPECT_EQ(cases, 6);
+}
+
+// A column whose engine disparities are mostly missing has no start: it is rejected whole, and the
+// columns beside it are still refined.
+TEST(DicRefine, ColumnWindowsNeedAQuarterOfTheColumnValid) {
+  const cv::Size strip(320, 48);
+  const double d_true = 22.4;
+  const Pair pair = render_pair(d_true, 0.0, strip, 29);
+  cv::Mat disparity(strip, CV_32FC1, cv::Scalar(d_true - 0.45));
+  for (int y = 0; y < strip.height; ++y) {
+    if (y % 5 != 0) disparity.at<float>(y, 100) = std::numeric_limits<float>::quiet_NaN();  // 10 of 48 valid
+    if (y % 3 != 0) disparity.at<float>(y, 150) = std::numeric_limits<float>::quiet_NaN();  // 16 of 48 valid
+  }
+  DicConfig params;
+  params.column_windows = true;
+  DicWorkspace ws;
+  refine_disparity_dic(pair.left, pair.right, disparity, params, ws);
+  int valid_100 = 0, valid_150 = 0;
+  for (int y = 0; y < strip.height; ++y) {
+    valid_100 += std::isfinite(disparity.at<float>(y, 100));
+    valid_150 += std::isfinite(disparity.at<float>(y, 150));
+  }
+  EXPECT_EQ(valid_100, 0);
+  EXPECT_EQ(valid_150, strip.height);
+  EXPECT_NEAR(disparity.at<float>(20, 150), d_true, 0.05);
+  EXPECT_NEAR(disparity.at<float>(20, 101), d_true, 0.05);
 }
 
 TEST(DicRefine, WideVectorsGiveTheSameResultsBitForBit) {

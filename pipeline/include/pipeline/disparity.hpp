@@ -84,6 +84,33 @@ class BandEstimator {
   std::vector<float> found_;
 };
 
+// Keeps the last estimated band while the frames measured in it say it still fits, so that the coarse
+// pass of BandEstimator runs once every few frames instead of on every one (it costs about as much as
+// the narrow-band match itself). Terrain moves little between frames at camera rates, and a band that
+// stops fitting shows at once: matches pile up against its edges or disappear. One per match thread.
+class BandTracker {
+ public:
+  // The most frames measured in one estimated band: a refresh that bounds how long a band chosen on
+  // an unusual frame can stay.
+  static constexpr int kMaxFrames = 30;
+
+  // The band to match this frame in, if the last one still fits; std::nullopt: estimate a new one.
+  std::optional<DisparityBand> band() const;
+  // After matching in `band`: the frame's disparities (CV_32FC1 px, NaN invalid), rows
+  // [row_begin, row_end) measured. Keeps the band for the next frame when their 2..98 percentiles stay
+  // at least kEdgePx inside it and the valid share is at least 0.8 of the share on the band's first
+  // frame (and at least 0.25 overall).
+  void update(DisparityBand band, bool estimated, const cv::Mat& disparity, int row_begin, int row_end);
+  void reset() { frames_ = 0; }
+
+ private:
+  static constexpr double kEdgePx = 2.0;
+  DisparityBand band_;
+  int frames_ = 0;  // frames measured in band_; 0: none to keep
+  double first_valid_ = 0;
+  std::vector<float> values_;
+};
+
 DisparityBand estimate_band(const cv::Mat& left_strip, const cv::Mat& right_strip, const StereoGeometry& g,
                             WorkingRange range);
 

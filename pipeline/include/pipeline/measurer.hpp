@@ -2,7 +2,8 @@
 // One stereo pair in, one rut measurement out (DESIGN.md §2-5), in three stages that a real-time
 // pipeline runs on separate threads and `replay` runs one after the other:
 //   rectify  - remap the strip of both raw images (rows around the measured strip)
-//   match    - find the disparity band, match, refine by digital image correlation
+//   match    - find the disparity band (or keep the last frame's while it fits: BandTracker), match,
+//              refine by digital image correlation
 //   extract  - reproject to millimetres, reduce to a cross-section, extract the rut
 // Per-frame path: nothing here throws because of frame content; a status says what went wrong.
 #include <memory>
@@ -37,12 +38,18 @@ struct MeasurerConfig {
   // Every second row: adjacent windows overlap by 10 of 11 rows, so this halves the time for the same
   // accuracy (measured: depth changed by under 0.01 mm on rendered ruts).
   DicConfig dic_config{.row_step = 2};
+  // Strips of up to kMaxColumnWindowRows rows are refined with one window per column spanning the
+  // strip (DicConfig::column_windows: a quarter of the time, the same depths); taller strips (full
+  // frame, surface maps) per pixel on dic_config's grid. false: always per pixel.
+  bool column_windows = true;
+  static constexpr int kMaxColumnWindowRows = 64;
   RutConfig rut;
 };
 
 // Figures of one frame's measurement, for logs and benchmarks. Milliseconds of thread time per stage.
 struct MeasurementDiagnostics {
   DisparityBand band;
+  bool band_estimated = false;  // false: the last frame's band was kept (BandTracker), or fixed_band
   DicStats dic;
   double rectify_ms = 0, band_ms = 0, disparity_ms = 0, dic_ms = 0, reproject_ms = 0, rut_ms = 0;
 };
@@ -64,7 +71,9 @@ struct FrameWork {
 struct MatchContext {
   std::unique_ptr<DisparityEngine> engine;
   BandEstimator band;
+  BandTracker band_tracker;
   DicWorkspace dic;
+  cv::Mat left_binned, right_binned, disparity_binned;  // column windows: the strips binned 2:1 along columns
 };
 
 class StereoMeasurer {
@@ -91,6 +100,9 @@ class StereoMeasurer {
   const MeasurerConfig& config() const { return config_; }
 
  private:
+  // Engine (and DIC) in w.diag.band.
+  void match_in_band(FrameWork& w, MatchContext& context) const;
+
   MeasurerConfig config_;
   cv::Size image_size_;
   StereoGeometry geometry_;

@@ -5,6 +5,9 @@
 // Conventions: the left camera is the reference. Disparity d = x_left - x_right in rectified pixels and
 // is positive for points in front of the rig. 3D points are in the left RECTIFIED camera frame
 // (X lateral, Y along travel, Z distance), millimetres.
+#include <cstdint>
+#include <vector>
+
 #include <opencv2/core.hpp>
 
 #include "core/stereo_calibration.hpp"
@@ -22,10 +25,11 @@ class StereoGeometry {
  public:
   // Runs cv::stereoRectify with CALIB_ZERO_DISPARITY. The free-scaling parameter alpha is the largest
   // one (least zoom, widest view) for which every pixel of the strip, in both rectified images, maps
-  // inside its raw image, so no black border lands in the strip. Computes fixed-point remap maps for
-  // the strip rows only. Throws std::invalid_argument if the strip lies outside the rectified image or
+  // inside its raw image, so no black border lands in the strip. Resampling tables cover the strip
+  // rows only. Throws std::invalid_argument if the strip lies outside the rectified image or
   // the rig is not a left/right pair (right camera not to the right of the left one after rectification).
-  // The maps are float (x, y) positions, not OpenCV's fixed-point maps: see rectify().
+  // The strip is resampled at the maps' float positions with a cubic B-spline, not with OpenCV's
+  // fixed-point remap (see rectify()); the taps and weights of every strip pixel are computed here.
   StereoGeometry(const StereoCalibration& calibration, StripRoi roi);
 
   cv::Size rectified_size() const { return rectified_size_; }
@@ -45,7 +49,7 @@ class StereoGeometry {
 
   // Remaps the strip rows of both raw images (CV_8UC1 or CV_16UC1, size = calibration image size) into
   // CV_8UC1 strips of rectified width x roi().rows, resampled at exact (float) positions with a cubic
-  // B-spline smoothing kernel (why: stereo_geometry.cpp, remap_bspline). 16-bit images are scaled to
+  // B-spline smoothing kernel (why: stereo_geometry.cpp, make_taps). 16-bit images are scaled to
   // 8 bits by one factor common to both strips, 255 / (brightest strip pixel), when that pixel exceeds
   // 255 (so 10/12/16-bit sensors all use the full 8-bit range); otherwise copied unscaled. Reuses the
   // output buffers when they already fit. Throws std::invalid_argument for a wrong size or type.
@@ -66,8 +70,14 @@ class StereoGeometry {
   cv::Matx44d Q_;
   cv::Matx33d R1_, R2_;
   cv::Matx34d P1_, P2_;
-  // Raw (x, y) position of every strip pixel, CV_32FC2 (roi().rows x rectified width).
-  cv::Mat left_map_, right_map_;
+  // Per strip pixel, row-major: the first column and row of the 4x4 raw block the cubic B-spline reads
+  // (unclamped: pixels at the raw border clamp when they are resampled) and the kernel's weights
+  // along x and y. Computed once from the float positions, so a frame costs the 16 taps alone.
+  struct SplineTap {
+    std::int32_t x = 0, y = 0;
+    float wx[4] = {}, wy[4] = {};
+  };
+  std::vector<SplineTap> left_taps_, right_taps_;
 };
 
 }  // namespace rutd
