@@ -6,6 +6,8 @@
 //   live        freshest frame wins, the source paced like a camera (--fps): capture-to-publish latency.
 // Figures are printed, never asserted: compare ratios within one run on a shared machine. --json prints
 // the same rows as one JSON object per line (for scripts and tables), instead of the text.
+#include <sys/resource.h>
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -59,6 +61,14 @@ class CountingSink final : public MeasurementSink {
 
 double ms(std::int64_t ns) { return static_cast<double>(ns) * 1e-6; }
 
+// CPU time of the whole process (every thread: source, stages, OpenCV's workers), ms.
+double process_cpu_ms() {
+  rusage u{};
+  getrusage(RUSAGE_SELF, &u);
+  const auto tv_ms = [](const timeval& t) { return static_cast<double>(t.tv_sec) * 1e3 + t.tv_usec * 1e-3; };
+  return tv_ms(u.ru_utime) + tv_ms(u.ru_stime);
+}
+
 void run(const char* mode, const char* regime, const SyntheticRenderer& renderer,
          const std::vector<StereoFrame>& frames, const MeasurerConfig& mc, bool lossless, double fps,
          const Options& o) {
@@ -74,11 +84,16 @@ void run(const char* mode, const char* regime, const SyntheticRenderer& renderer
   config.lossless = lossless;
   config.max_frame_age = std::chrono::milliseconds(0);  // measure, do not refuse
   RealtimePipeline pipeline(source, stages, sink, config);
+  const double cpu0 = process_cpu_ms();
   pipeline.start();
   std::this_thread::sleep_for(std::chrono::duration<double>(o.seconds));
   const PipelineStats s = pipeline.stats();
+  const double cpu_ms = process_cpu_ms() - cpu0;
   pipeline.stop();
   const double hz = static_cast<double>(s.published) / o.seconds;
+  // CPU per published pair: with the stages on separate threads, hardware_concurrency / cpu_per_pair is
+  // the rate a machine of that many idle cores could reach, whatever else shares this one.
+  const double cpu_per_pair = s.published > 0 ? cpu_ms / static_cast<double>(s.published) : 0.0;
   const StripRoi strip = measurer.config().strip;
   if (o.json) {
     // depth_err_mm: the worst |depth - truth| over the OK measurements (null when there was none).
@@ -87,22 +102,24 @@ void run(const char* mode, const char* regime, const SyntheticRenderer& renderer
         "{\"mode\":\"%s\",\"run\":\"%s\",\"engine\":\"%s\",\"dic\":%s,\"width\":%d,\"height\":%d,"
         "\"rows\":%d,\"hz\":%.2f,\"p50_ms\":%.3f,\"p99_ms\":%.3f,\"depth_err_mm\":%s,\"published\":%llu,"
         "\"ok\":%llu,\"dropped\":%llu,\"rectify_p50_ms\":%.3f,\"match_p50_ms\":%.3f,"
-        "\"extract_p50_ms\":%.3f}\n",
+        "\"extract_p50_ms\":%.3f,\"cpu_ms_per_pair\":%.3f}\n",
         mode, regime, std::string(to_string(mc.engine)).c_str(), mc.dic ? "true" : "false",
         renderer.calibration().image_size.width, renderer.calibration().image_size.height, strip.rows, hz,
         ms(s.end_to_end.p50_ns), ms(s.end_to_end.p99_ns), err.c_str(), static_cast<unsigned long long>(s.published),
         static_cast<unsigned long long>(sink.ok), static_cast<unsigned long long>(s.dropped_total()),
-        ms(s.stage_latency[1].p50_ns), ms(s.stage_latency[2].p50_ns), ms(s.stage_latency[3].p50_ns));
+        ms(s.stage_latency[1].p50_ns), ms(s.stage_latency[2].p50_ns), ms(s.stage_latency[3].p50_ns), cpu_per_pair);
     std::fflush(stdout);
     return;
   }
   std::printf(
       "%-6s %-10s rows %3d..%3d  published %4llu (%3llu ok, depth %.2f mm, worst error %.3f mm)  %7.2f Hz  "
-      "e2e p50 %8.2f p99 %8.2f ms | rectify %6.2f match %8.2f extract %6.2f ms (p50) | dropped %llu\n",
+      "e2e p50 %8.2f p99 %8.2f ms | rectify %6.2f match %8.2f extract %6.2f ms (p50) | dropped %llu | cpu %.2f "
+      "ms/pair\n",
       mode, regime, strip.row0, strip.row0 + strip.rows, static_cast<unsigned long long>(s.published),
       static_cast<unsigned long long>(sink.ok), sink.ok ? sink.depth_sum / static_cast<double>(sink.ok) : 0.0,
       sink.worst_error_mm, hz, ms(s.end_to_end.p50_ns), ms(s.end_to_end.p99_ns), ms(s.stage_latency[1].p50_ns),
-      ms(s.stage_latency[2].p50_ns), ms(s.stage_latency[3].p50_ns), static_cast<unsigned long long>(s.dropped_total()));
+      ms(s.stage_latency[2].p50_ns), ms(s.stage_latency[3].p50_ns), static_cast<unsigned long long>(s.dropped_total()),
+      cpu_per_pair);
   std::fflush(stdout);
 }
 

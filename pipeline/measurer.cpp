@@ -101,27 +101,71 @@ void StereoMeasurer::match(FrameWork& w, MatchContext& context) const {
   w.diag.band_estimated = !kept;
   w.diag.band = kept ? *kept : context.band.estimate(w.left_strip, w.right_strip, geometry_, config_.range);
   w.diag.band_ms = ms_since(t0);
-  match_in_band(w, context);
-  if (config_.fixed_band) return;
-  context.band_tracker.update(w.diag.band, w.diag.band_estimated, w.disparity,
-                              config_.strip.row0 - geometry_.roi().row0,
-                              config_.strip.row0 - geometry_.roi().row0 + config_.strip.rows);
-  if (w.diag.band_estimated || context.band_tracker.band()) return;
-  // The last frame's band no longer fits this one (the terrain jumped): match it again in a band
-  // estimated for it, so that a kept band never costs a measurement.
-  t0 = Clock::now();
-  w.diag.band_estimated = true;
-  w.diag.band = context.band.estimate(w.left_strip, w.right_strip, geometry_, config_.range);
-  w.diag.band_ms += ms_since(t0);
-  const MeasurementDiagnostics first = w.diag;
-  match_in_band(w, context);
-  w.diag.disparity_ms += first.disparity_ms;
-  w.diag.dic_ms += first.dic_ms;
-  context.band_tracker.update(w.diag.band, true, w.disparity, config_.strip.row0 - geometry_.roi().row0,
-                              config_.strip.row0 - geometry_.roi().row0 + config_.strip.rows);
+  const int row_begin = config_.strip.row0 - geometry_.roi().row0;
+  const int row_end = row_begin + config_.strip.rows;
+
+  // Starts from the last frame need a band that still fits, and nothing to be matched afresh.
+  const bool reuse = config_.dic && config_.reuse_starts && !w.diag.band_estimated &&
+                     context.previous.size() == w.left_strip.size() &&
+                     context.reused_frames < MeasurerConfig::kMaxReusedFrames && context.engine_refined > 0;
+  match_in_band(w, context, reuse);
+  if (reuse && w.diag.dic.refined < MeasurerConfig::kMinReusedShare * context.engine_refined) {
+    // The last frame's disparity no longer starts this one well (the terrain changed): match it again
+    // from the engine, so that a reused start never costs a measurement.
+    const MeasurementDiagnostics first = w.diag;
+    match_in_band(w, context, false);
+    w.diag.dic_ms += first.dic_ms;
+  }
+
+  if (!config_.fixed_band) {
+    context.band_tracker.update(w.diag.band, w.diag.band_estimated, w.disparity, row_begin, row_end);
+    if (!w.diag.band_estimated && !context.band_tracker.band()) {
+      // The last frame's band no longer fits this one (the terrain jumped): match it again in a band
+      // estimated for it, so that a kept band never costs a measurement.
+      t0 = Clock::now();
+      w.diag.band_estimated = true;
+      w.diag.band = context.band.estimate(w.left_strip, w.right_strip, geometry_, config_.range);
+      w.diag.band_ms += ms_since(t0);
+      const MeasurementDiagnostics first = w.diag;
+      match_in_band(w, context, false);
+      w.diag.disparity_ms += first.disparity_ms;
+      w.diag.dic_ms += first.dic_ms;
+      context.band_tracker.update(w.diag.band, true, w.disparity, row_begin, row_end);
+    }
+  }
+  if (config_.dic && config_.reuse_starts) w.disparity.copyTo(context.previous);
 }
 
-void StereoMeasurer::match_in_band(FrameWork& w, MatchContext& context) const {
+namespace {
+
+// Gaps of at most kReuseGapPx columns in a row of the last refined disparity take the nearer valid
+// neighbour as their start (a window rejected on one frame can refine on the next).
+constexpr int kReuseGapPx = 4;
+
+void fill_starts(const cv::Mat& previous, cv::Mat& starts) {
+  previous.copyTo(starts);
+  for (int y = 0; y < starts.rows; ++y) {
+    const float* src = previous.ptr<float>(y);
+    float* dst = starts.ptr<float>(y);
+    for (int x = 0; x < starts.cols; ++x) {
+      if (std::isfinite(src[x])) continue;
+      for (int k = 1; k <= kReuseGapPx; ++k) {
+        if (x - k >= 0 && std::isfinite(src[x - k])) {
+          dst[x] = src[x - k];
+          break;
+        }
+        if (x + k < starts.cols && std::isfinite(src[x + k])) {
+          dst[x] = src[x + k];
+          break;
+        }
+      }
+    }
+  }
+}
+
+}  // namespace
+
+void StereoMeasurer::match_in_band(FrameWork& w, MatchContext& context, bool reuse) const {
   // Only the measured rows are refined; the margin rows were matched as context for the windows.
   DicConfig dic = config_.dic_config;
   dic.row_begin = config_.strip.row0 - geometry_.roi().row0;
@@ -129,7 +173,10 @@ void StereoMeasurer::match_in_band(FrameWork& w, MatchContext& context) const {
   dic.column_windows = uses_column_windows(config_, config_.strip);
 
   auto t0 = Clock::now();
-  if (dic.column_windows) {
+  w.diag.starts_reused = reuse;
+  if (reuse) {
+    fill_starts(context.previous, w.disparity);
+  } else if (dic.column_windows) {
     // A column window needs only a start within its convergence range (the median of its column), so
     // the engine matches the strips binned 2:1 along columns: half the work.
     bin_rows(w.left_strip, context.left_binned);
@@ -147,6 +194,12 @@ void StereoMeasurer::match_in_band(FrameWork& w, MatchContext& context) const {
     t0 = Clock::now();
     w.diag.dic = refine_disparity_dic(w.left_strip, w.right_strip, w.disparity, dic, context.dic);
     w.diag.dic_ms = ms_since(t0);
+    if (reuse) {
+      ++context.reused_frames;
+    } else {
+      context.reused_frames = 0;
+      context.engine_refined = w.diag.dic.refined;
+    }
   }
 }
 

@@ -43,6 +43,13 @@ struct MeasurerConfig {
   // frame, surface maps) per pixel on dic_config's grid. false: always per pixel.
   bool column_windows = true;
   static constexpr int kMaxColumnWindowRows = 64;
+  // With DIC: start this frame's windows from the last frame's refined disparity instead of running the
+  // engine, while that keeps refining at least kMinReusedShare of what the engine's start refined, for
+  // up to kMaxReusedFrames frames in a row (the terrain moves far less than the windows' convergence
+  // range, about a pixel, between frames). A frame that falls short is matched again from the engine.
+  bool reuse_starts = true;
+  static constexpr int kMaxReusedFrames = 15;
+  static constexpr double kMinReusedShare = 0.97;
   RutConfig rut;
 };
 
@@ -50,6 +57,7 @@ struct MeasurerConfig {
 struct MeasurementDiagnostics {
   DisparityBand band;
   bool band_estimated = false;  // false: the last frame's band was kept (BandTracker), or fixed_band
+  bool starts_reused = false;   // the DIC started from the last frame's disparity; the engine did not run
   DicStats dic;
   double rectify_ms = 0, band_ms = 0, disparity_ms = 0, dic_ms = 0, reproject_ms = 0, rut_ms = 0;
 };
@@ -74,6 +82,10 @@ struct MatchContext {
   BandTracker band_tracker;
   DicWorkspace dic;
   cv::Mat left_binned, right_binned, disparity_binned;  // column windows: the strips binned 2:1 along columns
+  // MeasurerConfig::reuse_starts: the last refined disparity, and how it came about.
+  cv::Mat previous;
+  int reused_frames = 0;   // frames in a row started from `previous`
+  int engine_refined = 0;  // DicStats::refined of the last frame started from the engine
 };
 
 class StereoMeasurer {
@@ -100,8 +112,8 @@ class StereoMeasurer {
   const MeasurerConfig& config() const { return config_; }
 
  private:
-  // Engine (and DIC) in w.diag.band.
-  void match_in_band(FrameWork& w, MatchContext& context) const;
+  // Engine (or, with reuse, the last frame's disparity) and DIC in w.diag.band.
+  void match_in_band(FrameWork& w, MatchContext& context, bool reuse) const;
 
   MeasurerConfig config_;
   cv::Size image_size_;
