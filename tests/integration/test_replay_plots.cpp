@@ -1,0 +1,71 @@
+// rutd replay --plots on a rendered recording whose rut deepens and then leaves the view: the frames
+// chosen (every N-th, and the first of each status change) get their three PNGs, the run its series plot,
+// all readable at their sizes; a --plots path that is a file is one clear error; and no progress line
+// reaches a stderr that is not a terminal.
+#include <filesystem>
+#include <fstream>
+#include <set>
+#include <string>
+
+#include <gtest/gtest.h>
+#include <opencv2/imgcodecs.hpp>
+
+#include "recording/measurement_csv.hpp"
+#include "test_support.hpp"
+
+namespace rutd {
+namespace {
+
+namespace fs = std::filesystem;
+
+TEST(ReplayPlots, ChosenFramesAndTheSeriesArePlotted) {
+  test::TempDir tmp;
+  const std::string rec = (tmp.path() / "rec").string(), plots = (tmp.path() / "plots").string();
+  const std::string csv = (tmp.path() / "m.csv").string(), err = (tmp.path() / "err.txt").string();
+  ASSERT_EQ(test::run_rutd("synth " + rec + " --frames 7 --size 320x240 --depth-profile 0:30,6:60"), 0);
+  ASSERT_EQ(test::run_rutd("replay " + rec + " --out " + csv + " --plots " + plots + " --plot-every 3", err), 0)
+      << test::read_text(err);
+  const std::string log = test::read_text(err);
+  EXPECT_EQ(log.find('\r'), std::string::npos) << "a progress line on a stderr that is not a terminal";
+  // Which frames must have been chosen, from the measured statuses.
+  const auto rows = read_measurement_csv(csv).rows;
+  ASSERT_EQ(rows.size(), 7u);
+  std::set<std::uint64_t> chosen;
+  for (std::size_t i = 0; i < rows.size(); ++i)
+    if (i == 0 || rows[i].seq % 3 == 0 || rows[i].measurement.status != rows[i - 1].measurement.status)
+      chosen.insert(rows[i].seq);
+  std::set<std::string> expected{"series.png"};
+  for (std::uint64_t s : chosen)
+    for (const char* kind : {"section", "disparity", "left"}) {
+      char name[64];
+      std::snprintf(name, sizeof name, "frame_%06llu_%s.png", static_cast<unsigned long long>(s), kind);
+      expected.insert(name);
+    }
+  std::set<std::string> found;
+  for (const auto& e : fs::directory_iterator(plots)) found.insert(e.path().filename().string());
+  EXPECT_EQ(found, expected);
+  for (const std::string& name : found) {
+    const cv::Mat img = cv::imread(plots + "/" + name, cv::IMREAD_COLOR);
+    ASSERT_FALSE(img.empty()) << name;
+    const cv::Size want = name == "series.png"                      ? cv::Size(1000, 800)
+                          : name.find("_left") != std::string::npos ? cv::Size(640, 480)
+                                                                    : cv::Size(1000, 600);
+    EXPECT_EQ(img.size(), want) << name;
+    cv::Scalar mean, sd;
+    cv::meanStdDev(img, mean, sd);
+    EXPECT_GT(sd[0], 10.0) << name << " looks blank";
+  }
+}
+
+TEST(ReplayPlots, PlotsPathThatIsAFileIsNamed) {
+  test::TempDir tmp;
+  const std::string rec = (tmp.path() / "rec").string(), file = (tmp.path() / "afile").string();
+  const std::string err = (tmp.path() / "err.txt").string();
+  ASSERT_EQ(test::run_rutd("synth " + rec + " --frames 1 --size 320x240"), 0);
+  std::ofstream(file) << "x";
+  EXPECT_EQ(test::run_rutd("replay " + rec + " --out /dev/null --plots " + file, err), 2);
+  EXPECT_NE(test::read_text(err).find("afile: --plots:"), std::string::npos) << test::read_text(err);
+}
+
+}  // namespace
+}  // namespace rutd
