@@ -1,4 +1,4 @@
-// rutd replay --plots on a rendered recording whose rut deepens and then leaves the view: the frames
+// rutd replay --plots on a rendered recording whose rut appears after three frames: the frames
 // chosen (every N-th, and the first of each status change) get their three PNGs, the run its series plot,
 // all readable at their sizes; a --plots path that is a file is one clear error; and no progress line
 // reaches a stderr that is not a terminal.
@@ -22,8 +22,8 @@ TEST(ReplayPlots, ChosenFramesAndTheSeriesArePlotted) {
   test::TempDir tmp;
   const std::string rec = (tmp.path() / "rec").string(), plots = (tmp.path() / "plots").string();
   const std::string csv = (tmp.path() / "m.csv").string(), err = (tmp.path() / "err.txt").string();
-  ASSERT_EQ(test::run_rutd("synth " + rec + " --frames 7 --size 320x240 --depth-profile 0:30,6:60"), 0);
-  ASSERT_EQ(test::run_rutd("replay " + rec + " --out " + csv + " --plots " + plots + " --plot-every 3", err), 0)
+  ASSERT_EQ(test::run_rutd("synth " + rec + " --frames 7 --size 320x240 --depth-profile 0:1,2:1,3:40,6:40"), 0);
+  ASSERT_EQ(test::run_rutd("replay " + rec + " --out " + csv + " --plots " + plots + " --plot-every 4", err), 0)
       << test::read_text(err);
   const std::string log = test::read_text(err);
   EXPECT_EQ(log.find('\r'), std::string::npos) << "a progress line on a stderr that is not a terminal";
@@ -32,8 +32,12 @@ TEST(ReplayPlots, ChosenFramesAndTheSeriesArePlotted) {
   ASSERT_EQ(rows.size(), 7u);
   std::set<std::uint64_t> chosen;
   for (std::size_t i = 0; i < rows.size(); ++i)
-    if (i == 0 || rows[i].seq % 3 == 0 || rows[i].measurement.status != rows[i - 1].measurement.status)
+    if (i == 0 || rows[i].seq % 4 == 0 || rows[i].measurement.status != rows[i - 1].measurement.status)
       chosen.insert(rows[i].seq);
+  // A 1 mm dent is no rut: the status changes from NO_RUT to OK at a frame that is not a multiple of 4.
+  EXPECT_EQ(rows[0].measurement.status, RutStatus::NoRut);
+  EXPECT_EQ(rows[6].measurement.status, RutStatus::Ok);
+  EXPECT_GT(chosen.size(), 2u);
   std::set<std::string> expected{"series.png"};
   for (std::uint64_t s : chosen)
     for (const char* kind : {"section", "disparity", "left"}) {

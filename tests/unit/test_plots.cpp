@@ -101,8 +101,12 @@ TEST(Plots, CrossSectionShowsGroundLineAndDeepestPointWhereMeasured) {
   // The deepest point: depth below the line, perpendicular to it, at the deepest X.
   const double zd = g.line_m * g.deepest_x_mm + g.line_c + m.depth_mm * std::sqrt(1 + g.line_m * g.line_m);
   const cv::Point2d deepest = axes.to_pixel(g.deepest_x_mm, zd);
-  EXPECT_TRUE(colour_near(img, deepest, kPlotDeepestBgr, 1)) << deepest;
-  EXPECT_FALSE(colour_near(img, deepest + cv::Point2d(0, -25), kPlotDeepestBgr, 3, 40)) << deepest;
+  // A filled disc of radius 6 px there: red at its centre and 4 px to either side (the dashed depth line
+  // above it is vertical and thin, so only the disc is red beside the centre), and not red 10 px out.
+  for (double dx : {-4.0, 0.0, 4.0})
+    EXPECT_TRUE(colour_near(img, deepest + cv::Point2d(dx, 0), kPlotDeepestBgr, 0)) << deepest << " " << dx;
+  for (double dx : {-10.0, 10.0})
+    EXPECT_FALSE(colour_near(img, deepest + cv::Point2d(dx, 0), kPlotDeepestBgr, 1, 80)) << deepest << " " << dx;
   // Pile tops (green triangles) above the ground line.
   const double norm = std::sqrt(1 + g.line_m * g.line_m);
   EXPECT_TRUE(
