@@ -75,7 +75,7 @@ class Figure {
   static PlotResult save_png(const std::string& path, const cv::Mat& image) {
     PlotResult r;
     try {
-      r.ok = cv::imwrite(path, image);
+      r.ok = cv::imwrite(path, image, {cv::IMWRITE_PNG_COMPRESSION, 6});
     } catch (const cv::Exception& e) {
       r.error = path + ": " + e.what();
       return r;
@@ -180,12 +180,16 @@ PlotResult plot_cross_section(const std::string& path, const CrossSection& secti
   pls.box("bcnst", 0, 0, "bcnstv", 0, 0);
   pls.lab("X, across the rut (mm)", "Z, distance from the left camera (mm)", "");
   pls.mtex("t", 2.6, 0.5, 0.5, title.c_str());
+  // Figures only where a rut was found (a NO_RUT after the opening was found still has them: too shallow,
+  // too narrow or too wide); otherwise the ground slope when the line was fitted.
   const std::string figures =
-      m.status == RutStatus::Ok || m.status == RutStatus::RutAtEdge || m.status == RutStatus::NoRut
-          ? fmt::format("{}: depth {:.2f} mm, width {:.1f} mm, piles {:.1f} / {:.1f} mm, slope {:.2f}°, quality {:.2f}",
+      geo.has_rut ? fmt::format(
+                        "{}: depth {:.2f} mm, width {:.1f} mm, piles {:.1f} / {:.1f} mm, slope {:.2f}°, "
+                        "quality {:.2f}",
                         status_label(m.status), m.depth_mm, m.width_mm, m.left_pile_mm, m.right_pile_mm,
                         m.ground_slope_deg, m.quality)
-          : fmt::format("{}: no depth", status_label(m.status));
+      : geo.has_line ? fmt::format("{}: no depth (ground slope {:.2f}°)", status_label(m.status), m.ground_slope_deg)
+                     : fmt::format("{}: no depth", status_label(m.status));
   pls.mtex("t", 1.0, 0.5, 0.5, figures.c_str());
 
   pls.col0(kBlack);
