@@ -1,6 +1,7 @@
 // rutd bench --tables: the seed paper's Tables 1-3 measured on this machine with the synthetic bench.
 //   Table 1  rate (Hz) per engine, image size and mode (strip: the default measured strip; full: every row),
-//            with and without DIC. One thread runs the three stages in turn, back to back, on pairs
+//            with and without DIC. One thread runs the three stages in turn, back to back (OpenCV's matchers
+//            may still spread a call over its own worker threads), on pairs
 //            rendered up front (StereoMeasurer::measure, as `replay` does): the rate of the algorithm,
 //            not of the threaded pipeline, whose figures are the speed rows of plain `rutd bench`.
 //   Table 2  surface error (mm) of the measured strip against the renderer's exact surface, per engine and
@@ -63,7 +64,10 @@ const char* b(bool v) { return v ? "true" : "false"; }
 // Table 1: rate of measure() back to back, at least `seconds` and at least 2 pairs after one warm-up.
 void table1(const std::vector<Scene>& scenes, const std::vector<EngineKind>& engines, const BenchTablesOptions& o) {
   if (!o.json) {
-    std::printf("\nTable 1: measurement rate (Hz), one thread, stages in turn, %.1f s per configuration\n", o.seconds);
+    std::printf(
+        "\nTable 1: measurement rate (Hz), the stages in turn on one thread (OpenCV's own workers aside), %.1f s "
+        "per configuration\n",
+        o.seconds);
     std::printf("%-9s %-10s %-6s %12s %12s\n", "engine", "size", "mode", "Hz no DIC", "Hz DIC");
   }
   ProgressLine progress("table 1", scenes.size() * engines.size() * 4);
