@@ -71,5 +71,24 @@ TEST(ReplayPlots, PlotsPathThatIsAFileIsNamed) {
   EXPECT_NE(test::read_text(err).find("afile: --plots:"), std::string::npos) << test::read_text(err);
 }
 
+// `rutd run` with the configuration's plots section on: the plot sink beside the CAN sink, the first frame
+// plotted, the series written at exit and the sink's figures logged.
+TEST(RunPlots, ConfigurationSectionPlotsALiveRun) {
+  test::TempDir tmp;
+  const std::string cfg = (tmp.path() / "rutd.yaml").string(), plots = (tmp.path() / "plots").string();
+  const std::string err = (tmp.path() / "err.txt").string();
+  std::ofstream(cfg) << "source:\n  type: synthetic\n  synthetic:\n    size: 320x240\n    cycle_frames: 2\n"
+                        "sinks:\n  candump: \"\"\n"
+                        "plots:\n  enabled: true\n  dir: "
+                     << plots << "\n  every: 10\n  min_interval_s: 0\n";
+  ASSERT_EQ(test::run_rutd("run --config " + cfg + " --frames 30", err), 0) << test::read_text(err);
+  const std::string log = test::read_text(err);
+  EXPECT_NE(log.find("plots " + plots + ": "), std::string::npos) << log;
+  EXPECT_NE(log.find(", 0 errors"), std::string::npos) << log;
+  for (const char* name : {"frame_000000_section.png", "frame_000000_disparity.png", "frame_000000_left.png"})
+    EXPECT_FALSE(cv::imread(plots + "/" + name).empty()) << name;
+  EXPECT_EQ(cv::imread(plots + "/series.png").size(), cv::Size(1000, 800));
+}
+
 }  // namespace
 }  // namespace rutd
