@@ -19,6 +19,7 @@
 
 #include <fmt/format.h>
 
+#include "daemon/bench_tables.hpp"
 #include "daemon/commands.hpp"
 #include "daemon/dimensions.hpp"
 #include "pipeline/realtime_pipeline.hpp"
@@ -152,7 +153,10 @@ int run_bench(const Options& o) {
 
 void add_bench_command(CLI::App& app, int& exit_code) {
   auto o = std::make_shared<Options>();
-  CLI::App* cmd = app.add_subcommand("bench", "Print the pipeline's rate and latency on synthetic pairs");
+  CLI::App* cmd = app.add_subcommand(
+      "bench",
+      "Print the pipeline's rate and latency on synthetic pairs; --tables: the seed paper's Tables 1-3; --pair: every "
+      "engine on a rectified pair with ground truth");
   cmd->add_option("--seconds", o->seconds, "Length of each run")->check(CLI::Range(0.5, 600.0))->capture_default_str();
   cmd->add_option("--fps", o->fps, "Camera rate of the live runs")
       ->check(CLI::Range(1.0, 1000.0))
@@ -169,9 +173,45 @@ void add_bench_command(CLI::App& app, int& exit_code) {
   cmd->add_flag("--json", o->json,
                 "One JSON object per run on stdout (mode, run, engine, dic, width, height, rows, hz, "
                 "p50_ms, p99_ms, depth_err_mm, ...) instead of the text table");
-  cmd->callback([o, no_dic, &exit_code] {
+  // The seed paper's tables and the evaluation of a user's own pair (bench_tables.cpp, bench_pair.cpp).
+  auto tables = std::make_shared<BenchTablesOptions>();
+  auto pair = std::make_shared<BenchPairOptions>();
+  auto table_list = std::make_shared<std::vector<int>>();
+  auto pair_files = std::make_shared<std::vector<std::string>>();
+  auto engines = std::make_shared<std::vector<std::string>>();
+  cmd->add_option("--tables", *table_list, "Print the seed paper's tables instead: 1 rate, 2 surface error, 3 depth")
+      ->delimiter(',')
+      ->check(CLI::Range(1, 3));
+  cmd->add_option("--sizes", tables->sizes, "Image sizes of the tables")->delimiter(',')->capture_default_str();
+  cmd->add_option("--engines", *engines, "Engines of --tables and --pair (default: all)")
+      ->delimiter(',')
+      ->check(CLI::IsMember({"bm", "sgbm", "sgbm3way", "hh4", "hh"}));
+  auto* pair_opt =
+      cmd->add_option("--pair", *pair_files, "Evaluate every engine on this rectified pair LEFT RIGHT (needs --gt)")
+          ->expected(2);
+  auto* gt_opt = cmd->add_option("--gt", pair->gt, "Ground-truth disparity image of --pair (0 = unknown)");
+  cmd->add_option("--gt-scale", pair->gt_scale, "Ground-truth value / this = disparity in px")->capture_default_str();
+  cmd->add_option("--dmin", pair->dmin, "Smallest disparity searched (default: from the ground truth)");
+  cmd->add_option("--dmax", pair->dmax, "Largest disparity searched (default: from the ground truth)");
+  pair_opt->needs(gt_opt);
+  gt_opt->needs(pair_opt);
+  cmd->callback([o, no_dic, tables, pair, table_list, pair_files, engines, &exit_code] {
     o->dic = !*no_dic;
-    exit_code = run_bench(*o);
+    if (!pair_files->empty()) {
+      pair->left = (*pair_files)[0];
+      pair->right = (*pair_files)[1];
+      pair->json = o->json;
+      if (!engines->empty()) pair->engines = *engines;
+      exit_code = run_bench_pair(*pair);
+    } else if (!table_list->empty()) {
+      tables->tables = *table_list;
+      tables->seconds = o->seconds;
+      tables->json = o->json;
+      if (!engines->empty()) tables->engines = *engines;
+      exit_code = run_bench_tables(*tables);
+    } else {
+      exit_code = run_bench(*o);
+    }
   });
 }
 

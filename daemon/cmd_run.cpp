@@ -8,6 +8,7 @@
 // while measuring goes on.
 #include <atomic>
 #include <csignal>
+#include <filesystem>
 #include <fstream>
 #include <functional>
 #include <iostream>
@@ -112,6 +113,18 @@ int run_daemon(const RunOptions& o) {
   LatestMeasurementSink latest;
   std::vector<MeasurementSink*> sinks{&can, &latest};
   if (csv) sinks.push_back(csv.get());
+  std::unique_ptr<PlotSink> plots;
+  if (c.plots_enabled) {
+    std::error_code ec;
+    std::filesystem::create_directories(c.plots.dir, ec);
+    if (ec) throw InputError(c.file, "plots.dir", c.plots.dir + ": cannot create the folder: " + ec.message());
+    try {
+      plots = std::make_unique<PlotSink>(c.plots, PlotContext::from(source->calibration(), measurer));
+    } catch (const std::invalid_argument& e) {
+      throw InputError(c.file, "plots.dir", e.what());
+    }
+    sinks.push_back(plots.get());
+  }
   SinkFanout fanout(sinks);
 
   install_stop_handlers();
@@ -146,6 +159,12 @@ int run_daemon(const RunOptions& o) {
     // The failure itself was logged once, when it happened.
     spdlog::info("recording {}: {} pairs written, {} dropped (writer behind){}", recorder->directory(), r.written,
                  r.dropped, r.failed ? fmt::format(", stopped by an error, {} pairs not recorded", r.discarded) : "");
+  }
+  if (plots) {
+    const PlotSinkStats p = plots->finish();
+    spdlog::info("plots {}: {} files written for {} frames, {} frames dropped (plot thread behind), {} errors{}",
+                 c.plots.dir, p.files_written, p.frames_plotted, p.dropped, p.errors,
+                 p.errors > 0 ? " (the last: " + p.last_error + ")" : std::string());
   }
   if (bus) {
     const SocketCanStats& b = bus->stats();

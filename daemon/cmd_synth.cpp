@@ -7,6 +7,7 @@
 #include <spdlog/spdlog.h>
 
 #include "daemon/commands.hpp"
+#include "daemon/progress.hpp"
 #include "daemon/synth_options.hpp"
 #include "recording/recording.hpp"
 #include "synthetic/truth_csv.hpp"
@@ -27,7 +28,9 @@ int run_synth(const SynthCommandOptions& o) {
   TruthCsvWriter truth((std::filesystem::path(o.dir) / "truth.csv").string());
   StereoFrame frame;
   const auto t0 = std::chrono::steady_clock::now();
+  ProgressLine progress("synth", o.frames);
   for (std::uint64_t i = 0; i < o.frames; ++i) {
+    progress.update(i);
     renderer.render(i, frame);
     if (!writer.append(frame)) {
       spdlog::error("{}", writer.error());
@@ -36,6 +39,7 @@ int run_synth(const SynthCommandOptions& o) {
     truth.append(renderer.truth(i), frame.t_ns);
   }
   const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  progress.clear();
   spdlog::info("wrote {} pairs of {}x{} to {} ({:.1f} pairs/s)", o.frames, params.rig.image_size.width,
                params.rig.image_size.height, o.dir, s > 0 ? o.frames / s : 0.0);
   return 0;

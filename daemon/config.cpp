@@ -366,6 +366,19 @@ RutdConfig parse_config(const std::string& yaml_text, const std::string& file) {
   for (std::size_t i = 0; i < cpu_affinity.size() && i < kStageCount; ++i) c.pipeline.threads[i].cpu = cpu_affinity[i];
   for (ThreadPlacement& t : c.pipeline.threads) t.fifo_priority = realtime_priority;
 
+  Section plots = top.child("plots");
+  int plot_every = 0, plot_queue = static_cast<int>(c.plots.queue);
+  plots.get<bool>("enabled", c.plots_enabled)
+      .get<std::string>("dir", c.plots.dir)
+      .get<int>("every", plot_every, in_range(0, 1000000))
+      .get<double>("min_interval_s", c.plots.min_interval_s, in_range(0.0, 3600.0))
+      .get<int>("queue", plot_queue, in_range(1, 64))
+      .get<double>("series_period_s", c.plots.series_period_s, in_range(0.0, 86400.0));
+  if (c.plots_enabled && c.plots.dir.empty()) plots.fail("dir", "must name a folder when plots.enabled is true");
+  plots.finish();
+  c.plots.every = static_cast<std::uint64_t>(plot_every);
+  c.plots.queue = static_cast<std::size_t>(plot_queue);
+
   Section logging = top.child("logging");
   logging.parse("level", [&](const std::string& t) {
     static const std::set<std::string> levels{"trace", "debug", "info", "warn", "error"};

@@ -289,6 +289,7 @@ double smoothed_ground_sigma(const std::vector<double>& h_fit, const Zone& zone,
 
 RutMeasurement extract_rut(const CrossSection& section, const RutConfig& params, RutWorkspace& ws) {
   RutMeasurement out;
+  ws.geometry = RutGeometry{};
   const int n = static_cast<int>(section.z_mm.size());
   Profile p;
   p.grid = {section.x0_mm, section.dx_mm, n};
@@ -335,6 +336,9 @@ RutMeasurement extract_rut(const CrossSection& section, const RutConfig& params,
     }
   }
   out.ground_slope_deg = std::atan(line.m) * 180.0 / kPi;
+  ws.geometry.has_line = true;
+  ws.geometry.line_m = line.m;
+  ws.geometry.line_c = line.c;
 
   // Step 5.
   heights(ws.smooth, p.grid, line, ws.h_fit);
@@ -370,6 +374,17 @@ RutMeasurement extract_rut(const CrossSection& section, const RutConfig& params,
   out.area_mm2 = area_below(ws.h_raw, ws.slope, line.m, p.grid, o, norm, p.half / 2);
   out.left_pile_mm = o.left_edge ? 0.0 : pile_height(ws, p, params, 0, o.left_bin);
   out.right_pile_mm = o.right_edge ? 0.0 : pile_height(ws, p, params, o.right_bin, n - 1);
+  RutGeometry& geo = ws.geometry;
+  geo.has_rut = true;
+  geo.deepest_x_mm = p.grid.x(k);
+  geo.left_x_mm = o.left_x;
+  geo.right_x_mm = o.right_x;
+  // Pile tops: the highest smoothed point outside each crossing (where pile_height refines).
+  const double none = std::numeric_limits<double>::quiet_NaN();
+  const int left_top = out.left_pile_mm > 0.0 ? argmax_valid(ws.h_fit, 0, o.left_bin) : -1;
+  const int right_top = out.right_pile_mm > 0.0 ? argmax_valid(ws.h_fit, o.right_bin, n - 1) : -1;
+  geo.left_pile_x_mm = left_top >= 0 ? p.grid.x(left_top) : none;
+  geo.right_pile_x_mm = right_top >= 0 ? p.grid.x(right_top) : none;
 
   if (o.left_edge || o.right_edge) {
     out.status = RutStatus::RutAtEdge;

@@ -35,9 +35,10 @@ check_folder drivers/can can core rut pipeline          # pipeline: can_sink.* o
 check_folder drivers/camera camera core rut
 check_folder drivers/recording recording core rut pipeline  # pipeline: measurement_csv_sink.hpp only
 check_folder drivers/synthetic synthetic core rut
+check_folder drivers/plots plots core rut pipeline  # pipeline: plot_sink.* only
 while IFS= read -r line; do
   case ${line%%:*} in
-    */can_sink.hpp | */can_sink.cpp | */measurement_csv_sink.hpp) ;;
+    */can_sink.hpp | */can_sink.cpp | */measurement_csv_sink.hpp | */plot_sink.hpp | */plot_sink.cpp) ;;
     *) fail "only the measurement-sink adapters of drivers/ include pipeline/: $line" ;;
   esac
 done < <(grep -rn '#include "pipeline/' "$src/drivers" --include='*.cpp' --include='*.hpp')
@@ -55,5 +56,5 @@ if ((failures > 0)); then
   echo "layering: $failures breach(es)"
   exit 1
 fi
-echo "layering: rut, core, pipeline and the four driver libraries include only what they may;" \
+echo "layering: rut, core, pipeline and the five driver libraries include only what they may;" \
   "no public header includes a device header; the pipeline links no device library"

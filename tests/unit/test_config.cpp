@@ -86,6 +86,24 @@ TEST(Config, RecordSinkIsOffByDefaultAndReadAsText) {
   expect_error("sinks:\n  record:\n    dir: x\n", {"sinks.record", "expected text"});
 }
 
+TEST(Config, PlotsAreOffByDefaultAndNeedAFolder) {
+  const RutdConfig d = parse_config(default_config_text(), "(embedded default)");
+  EXPECT_FALSE(d.plots_enabled);
+  const RutdConfig c = parse_config(
+      "plots:\n  enabled: true\n  dir: /tmp/p\n  every: 30\n  min_interval_s: 2\n"
+      "  queue: 2\n  series_period_s: 0\n",
+      "test.yaml");
+  EXPECT_TRUE(c.plots_enabled);
+  EXPECT_EQ(c.plots.dir, "/tmp/p");
+  EXPECT_EQ(c.plots.every, 30u);
+  EXPECT_EQ(c.plots.min_interval_s, 2.0);
+  EXPECT_EQ(c.plots.queue, 2u);
+  EXPECT_EQ(c.plots.series_period_s, 0.0);
+  EXPECT_FALSE(c.plots.lossless);  // a live run drops plots, never measurements
+  expect_error("plots:\n  enabled: true\n", {"plots.dir", "must name a folder"});
+  expect_error("plots:\n  queue: 0\n", {"line 2", "plots.queue"});
+}
+
 TEST(Config, ImpossibleValuesAreNamed) {
   expect_error("measurement:\n  near_mm: 900\n  far_mm: 400\n", {"measurement.near_mm", "smaller than far_mm"});
   expect_error("measurement:\n  engine: cuda9\n", {"line 2", "measurement.engine", "cuda9"});

@@ -11,6 +11,7 @@
 #include "can/can_encoder.hpp"
 #include "pipeline/measurer.hpp"
 #include "pipeline/realtime_pipeline.hpp"
+#include "plots/plot_sink.hpp"
 #include "synthetic/synthetic_renderer.hpp"
 
 namespace rutd {
@@ -54,6 +55,15 @@ struct RutdConfig {
   // in Stage order; entries past the last stage are ignored) and realtime_priority (SCHED_FIFO of every
   // stage thread) land in max_frame_age, status_period and threads. The daemon sets the rest.
   PipelineConfig pipeline;
+  // The `plots` section: off by default. When on, PNG plots of chosen frames and of the run go to
+  // plots.dir from the plot sink's own thread (rate-limited, dropped when behind, never blocking).
+  bool plots_enabled = false;
+  PlotConfig plots = [] {
+    PlotConfig p;
+    p.min_interval_s = 5.0;
+    p.series_period_s = 60.0;
+    return p;
+  }();
   LoggingConfig logging;
 };
 

@@ -60,8 +60,25 @@ struct CrossSection {
   std::vector<int> scratch_offset;
 };
 
-// Scratch vectors reused between frames by extract_rut; contents unspecified.
+// Where the last extract_rut call found the rut on the cross-section (same frame and units), for plots
+// and diagnostics. Each part is valid only when its flag is set: the line once the ground was fitted
+// (any status but TooFewPoints and NoGround), the rest once a rut opening was found (Ok, NoRut,
+// RutAtEdge after the ground fit).
+struct RutGeometry {
+  bool has_line = false;
+  double line_m = 0.0, line_c = 0.0;  // ground line Z = m X + c
+  bool has_rut = false;
+  // The deepest point: at X deepest_x_mm, depth_mm below the line measured perpendicular to it, so at
+  // Z = m X + c + depth_mm * sqrt(1 + m^2).
+  double deepest_x_mm = 0.0;
+  double left_x_mm = 0.0, right_x_mm = 0.0;  // the ground-line crossings that define width_mm
+  // X of each pile's top; NaN where the pile is reported as 0.
+  double left_pile_x_mm = 0.0, right_pile_x_mm = 0.0;
+};
+
+// Scratch vectors reused between frames by extract_rut; contents unspecified, except `geometry`.
 struct RutWorkspace {
+  RutGeometry geometry;        // of the last extract_rut call
   std::vector<double> smooth;  // local quadratic fit value per bin (Z, mm)
   std::vector<double> slope;   // local fit dZ/dX per bin
   std::vector<double> h_raw;   // raw heights above the current ground line (mm, + = towards camera)

@@ -1,0 +1,206 @@
+#include "plots/plot_sink.hpp"
+
+#include <unistd.h>
+
+#include <chrono>
+#include <filesystem>
+#include <stdexcept>
+
+#include <boost/lockfree/spsc_queue.hpp>
+#include <fmt/format.h>
+#include <opencv2/calib3d.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "core/monotonic_clock.hpp"
+
+namespace rutd {
+
+// One picked frame: copies of what the plots draw. Buffers are reused slot to slot.
+struct PlotSink::Job {
+  std::uint64_t seq = 0;
+  double t_s = 0;
+  cv::Mat left_raw, disparity;
+  CrossSection section;
+  RutMeasurement measurement;
+};
+
+struct PlotSink::Queues {
+  explicit Queues(std::size_t n) : ready(n), free(n), series(8192) {}
+  boost::lockfree::spsc_queue<Job*> ready;  // publish thread -> plot thread
+  boost::lockfree::spsc_queue<Job*> free;   // plot thread -> publish thread
+  boost::lockfree::spsc_queue<SeriesSample> series;
+};
+
+PlotContext PlotContext::from(const StereoCalibration& calibration, const StereoMeasurer& measurer) {
+  const StereoGeometry& g = measurer.geometry();
+  return PlotContext{calibration, g.R1(), g.P1(), g.rectified_size(), g.roi(), measurer.config().rut};
+}
+
+PlotSink::PlotSink(PlotConfig config, PlotContext context) : config_(std::move(config)), context_(std::move(context)) {
+  if (config_.queue == 0) throw std::invalid_argument("plots.queue: must be at least 1");
+  std::error_code ec;
+  if (!std::filesystem::is_directory(config_.dir, ec))
+    throw std::invalid_argument("plots.dir: " + config_.dir + ": not a folder");
+  if (::access(config_.dir.c_str(), W_OK) != 0)
+    throw std::invalid_argument("plots.dir: " + config_.dir + ": not writable");
+  queues_ = std::make_unique<Queues>(config_.queue);
+  for (std::size_t i = 0; i < config_.queue; ++i) {
+    jobs_.push_back(std::make_unique<Job>());
+    queues_->free.push(jobs_.back().get());
+  }
+  cv::initUndistortRectifyMap(context_.calibration.M1, context_.calibration.D1, context_.R1, context_.P1,
+                              context_.rectified_size, CV_32FC1, map_x_, map_y_);
+  thread_ = std::thread([this] { worker(); });
+}
+
+PlotSink::~PlotSink() { finish(); }
+
+void PlotSink::publish(const FrameWork& w, const SensorHealth&) {
+  const RutMeasurement& m = w.measurement;
+  if (first_t_ns_ < 0) first_t_ns_ = w.frame.t_ns;
+  const double t_s = static_cast<double>(w.frame.t_ns - first_t_ns_) * 1e-9;
+  if (!queues_->series.push(SeriesSample{w.frame.seq, t_s, m.status, m.depth_mm, m.width_mm, m.quality}))
+    series_dropped_.fetch_add(1, std::memory_order_relaxed);
+
+  const bool changed = !have_status_ || m.status != last_status_;
+  have_status_ = true;
+  last_status_ = m.status;
+  const bool periodic = config_.every > 0 && w.frame.seq % config_.every == 0;
+  if (!changed && !periodic) return;
+  const std::int64_t now = monotonic_now_ns();
+  if (config_.min_interval_s > 0 && last_plot_ns_ != 0 &&
+      now - last_plot_ns_ < static_cast<std::int64_t>(config_.min_interval_s * 1e9))
+    return;
+  chosen_.fetch_add(1, std::memory_order_relaxed);
+  Job* job = nullptr;
+  while (!queues_->free.pop(job)) {
+    if (!config_.lossless || stop_.load(std::memory_order_acquire)) {
+      dropped_.fetch_add(1, std::memory_order_relaxed);
+      return;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  }
+  last_plot_ns_ = now;
+  job->seq = w.frame.seq;
+  job->t_s = t_s;
+  w.frame.left.copyTo(job->left_raw);
+  w.disparity.copyTo(job->disparity);
+  job->section.x0_mm = w.section.x0_mm;
+  job->section.dx_mm = w.section.dx_mm;
+  job->section.z_mm = w.section.z_mm;
+  job->section.count = w.section.count;
+  job->measurement = m;
+  queues_->ready.push(job);  // cannot fail: at most `queue` jobs exist
+}
+
+void PlotSink::note(const PlotResult& r) {
+  if (r.ok) {
+    written_.fetch_add(1, std::memory_order_relaxed);
+    return;
+  }
+  errors_.fetch_add(1, std::memory_order_relaxed);
+  const std::lock_guard lock(error_mutex_);
+  last_error_ = r.error;
+}
+
+void PlotSink::plot(Job& job) {
+  const RutMeasurement& m = job.measurement;
+  const std::string stem = fmt::format("{}/frame_{:06d}_", config_.dir, job.seq);
+  RutWorkspace ws;
+  extract_rut(job.section, context_.rut, ws);  // the same measurement again, for where it lies
+  const RutGeometry& geo = ws.geometry;
+  const std::string title = fmt::format("Cross-section, frame {} (t = {:.2f} s)", job.seq, job.t_s);
+  bool all = true;
+  const auto keep = [&](const PlotResult& r) {
+    note(r);
+    all = all && r.ok;
+  };
+  keep(plot_cross_section(stem + "section.png", job.section, m, geo, title));
+  keep(plot_disparity(stem + "disparity.png", job.disparity, context_.strip.row0,
+                      fmt::format("Refined disparity of the measured strip, frame {}", job.seq)));
+  if (!job.left_raw.empty()) {
+    cv::Mat rectified, grey;
+    if (job.left_raw.depth() == CV_16U) {
+      double hi = 0;
+      cv::minMaxLoc(job.left_raw, nullptr, &hi);
+      job.left_raw.convertTo(grey, CV_8U, hi > 255 ? 255.0 / hi : 1.0);
+    } else {
+      grey = job.left_raw;
+    }
+    if (grey.size() == context_.calibration.image_size) {
+      cv::remap(grey, rectified, map_x_, map_y_, cv::INTER_LINEAR);
+      ImageMarks marks;
+      marks.strip_row0 = context_.strip.row0;
+      marks.strip_rows = context_.strip.rows;
+      // Columns of points on the strip's middle row: u = fx X / Z + cx on the rectified image.
+      if (geo.has_rut) {
+        const double fx = context_.P1(0, 0), cx = context_.P1(0, 2);
+        const auto col = [&](double x) {
+          const double z = geo.line_m * x + geo.line_c;
+          return z > 0 ? fx * x / z + cx : -1.0;
+        };
+        marks.left_col = col(geo.left_x_mm);
+        marks.right_col = col(geo.right_x_mm);
+        marks.deepest_col = col(geo.deepest_x_mm);
+      }
+      marks.caption = fmt::format("frame {}  {}  depth {:.2f} mm  width {:.1f} mm", job.seq, to_string(m.status),
+                                  m.depth_mm, m.width_mm);
+      keep(write_strip_overlay(stem + "left.png", rectified, marks));
+    }
+  }
+  if (all) plotted_.fetch_add(1, std::memory_order_relaxed);
+}
+
+void PlotSink::write_series() {
+  SeriesSample s;
+  while (queues_->series.pop(s)) series_.push_back(s);
+  if (series_.empty()) return;
+  note(plot_series(config_.dir + "/series.png", series_, fmt::format("Rut over the run: {} frames", series_.size())));
+}
+
+void PlotSink::worker() {
+  auto next_series = std::chrono::steady_clock::now() + std::chrono::duration<double>(config_.series_period_s);
+  for (;;) {
+    const bool stopping = stop_.load(std::memory_order_acquire);
+    Job* job = nullptr;
+    bool any = false;
+    while (queues_->ready.pop(job)) {
+      any = true;
+      plot(*job);
+      queues_->free.push(job);
+    }
+    SeriesSample s;
+    while (queues_->series.pop(s)) series_.push_back(s);
+    if (stopping) break;
+    if (config_.series_period_s > 0 && std::chrono::steady_clock::now() >= next_series) {
+      write_series();
+      next_series = std::chrono::steady_clock::now() + std::chrono::duration<double>(config_.series_period_s);
+    }
+    if (!any) std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  write_series();
+}
+
+PlotSinkStats PlotSink::finish() {
+  if (!finished_) {
+    finished_ = true;
+    stop_.store(true, std::memory_order_release);
+    if (thread_.joinable()) thread_.join();
+  }
+  return stats();
+}
+
+PlotSinkStats PlotSink::stats() const {
+  PlotSinkStats s;
+  s.frames_chosen = chosen_.load(std::memory_order_relaxed);
+  s.frames_plotted = plotted_.load(std::memory_order_relaxed);
+  s.files_written = written_.load(std::memory_order_relaxed);
+  s.dropped = dropped_.load(std::memory_order_relaxed);
+  s.series_dropped = series_dropped_.load(std::memory_order_relaxed);
+  s.errors = errors_.load(std::memory_order_relaxed);
+  const std::lock_guard lock(error_mutex_);
+  s.last_error = last_error_;
+  return s;
+}
+
+}  // namespace rutd
