@@ -23,6 +23,7 @@
 #include "daemon/config.hpp"
 #include "daemon/dimensions.hpp"
 #include "daemon/latest_measurement_sink.hpp"
+#include "daemon/no_output_status_sink.hpp"
 #include "daemon/run_sources.hpp"
 #include "daemon/service_notifier.hpp"
 #include "daemon/stop_signal.hpp"
@@ -109,8 +110,11 @@ int run_daemon(const RunOptions& o) {
   CanSink can(c.can, bus.get(), log.get(), candump_stream, std::move(recording_failed));
   std::unique_ptr<MeasurementCsvSink> csv;
   if (csv_stream != nullptr) csv = std::make_unique<MeasurementCsvSink>(*csv_stream);
+  // The CAN status frame says NO_MEASUREMENT once nothing has been published for as long as it takes to
+  // call a camera lost.
+  NoOutputStatusSink can_status(can, c.pipeline.no_frame_timeout);
   LatestMeasurementSink latest;
-  std::vector<MeasurementSink*> sinks{&can, &latest};
+  std::vector<MeasurementSink*> sinks{&can_status, &latest};
   if (csv) sinks.push_back(csv.get());
   SinkFanout fanout(sinks);
 
