@@ -28,7 +28,7 @@ bool Supervisor::tick(const PipelineStats& s, const LatestMeasurementSink& lates
   if (alive && ready_) notifier_.watchdog_ping();
   if (alive != alive_) {
     if (alive) {
-      spdlog::info("pipeline moving again; watchdog pings resumed");
+      spdlog::info("pipeline moving again{}", ready_ ? "; watchdog pings resumed" : "");
     } else {
       spdlog::error("pipeline stalled: pairs arrive but none is handled; {}",
                     ready_ ? "watchdog pings stopped" : "READY=1 waits for the start-up limit");

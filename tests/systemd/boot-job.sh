@@ -135,7 +135,7 @@ since=$(date +%s)
 wait_for $((WATCHDOG_S * 2 + 20)) sh -c "journalctl -u rutd.service --since @$since -o cat | grep -q 'pipeline stalled'"
 no_stall
 ok=0
-wait_for $((WATCHDOG_S * 3 + 20)) new_pid "$pid" && ok=1
+wait_for $((WATCHDOG_S * 4 + 20)) new_pid "$pid" && ok=1
 t_new=$(now)
 killed=0
 journalctl -u "$unit" --since "@$since" --no-pager -o cat | grep -q "Watchdog timeout" && killed=1
@@ -165,6 +165,6 @@ check stop_s "$stop_s" "<=5" "$([ $clean = 1 ] && le "$stop_s" 5 || echo 0)" \
 score=$(systemd-analyze security --no-pager "$unit" 2>/dev/null | sed -n 's/.*Overall exposure level for [^:]*: *\([0-9.]*\).*/\1/p')
 check security_exposure "${score:-none}" "<=2.5" "$([ -n "$score" ] && le "$score" 2.5 || echo 0)"
 
-journalctl -b -u "$unit" --no-pager -o short-monotonic | tail -40 | sed 's/^/RUTD-JOURNAL /'
+journalctl -b -u "$unit" --no-pager -o short-monotonic | cut -c1-240 | sed 's/^/RUTD-JOURNAL /'
 echo "RUTD-FIGURE job_done_uptime_s $(now)"
 exit "$failed"
