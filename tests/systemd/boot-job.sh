@@ -118,7 +118,10 @@ hold=$((WATCHDOG_S * 5 / 2))
 t0=$(now)
 steady=1
 while awk -v t="$(now)" -v e="$(awk -v a="$t0" -v h="$hold" 'BEGIN { print a + h }')" 'BEGIN { exit !(t < e) }'; do
-  if [ "$(prop ActiveState)" != activating ] || [ "$(prop MainPID)" != "$pid" ]; then steady=0; break; fi
+  # READY=1 at rutd's 30 s start-up limit may fall at the end of the hold: active is fine, killed is not.
+  case $(prop ActiveState) in activating | active) ;; *) steady=0 ;; esac
+  [ "$(prop MainPID)" = "$pid" ] || steady=0
+  [ $steady = 1 ] || break
   sleep 0.2
 done
 check activating_without_watchdog_kill_s "$(sub "$t0" "$(now)")" ">=$hold" \
