@@ -24,8 +24,10 @@
 #include "daemon/config.hpp"
 #include "daemon/dimensions.hpp"
 #include "daemon/latest_measurement_sink.hpp"
+#include "daemon/no_output_status_sink.hpp"
 #include "daemon/run_sources.hpp"
 #include "daemon/service_notifier.hpp"
+#include "daemon/stalling_stages.hpp"
 #include "daemon/stop_signal.hpp"
 #include "daemon/supervisor.hpp"
 #include "pipeline/realtime_pipeline.hpp"
@@ -41,6 +43,7 @@ struct RunOptions {
   std::uint64_t frames = 0;  // stop after this many published measurements; 0: until a signal
   std::optional<std::string> socketcan, candump, csv, record, size, engine, replay_dir;
   bool no_dic = false;
+  std::optional<std::uint64_t> test_stall_match_after;  // tests only: see daemon/stalling_stages.hpp
 };
 
 RutdConfig effective_config(const RunOptions& o) {
@@ -89,7 +92,10 @@ int run_daemon(const RunOptions& o) {
   spdlog::set_level(spdlog::level::from_str(c.logging.level));
   std::unique_ptr<FrameSource> source = make_source(c);  // throws InputError for a bad recording/calibration
   const StereoMeasurer measurer(source->calibration(), c.measurement);
-  MeasurerStages stages(measurer);
+  MeasurerStages measurer_stages(measurer);
+  std::optional<StallingStages> stalling;
+  if (o.test_stall_match_after) stalling.emplace(measurer_stages, *o.test_stall_match_after);
+  PipelineStages& stages = stalling ? static_cast<PipelineStages&>(*stalling) : measurer_stages;
 
   std::ofstream candump_file, csv_file;
   std::ostream* candump_stream = open_stream(c.sinks.candump, candump_file, "sinks.candump");
@@ -110,8 +116,11 @@ int run_daemon(const RunOptions& o) {
   CanSink can(c.can, bus.get(), log.get(), candump_stream, std::move(recording_failed));
   std::unique_ptr<MeasurementCsvSink> csv;
   if (csv_stream != nullptr) csv = std::make_unique<MeasurementCsvSink>(*csv_stream);
+  // The CAN status frame says NO_MEASUREMENT once nothing has been published for as long as it takes to
+  // call a camera lost.
+  NoOutputStatusSink can_status(can, c.pipeline.no_frame_timeout);
   LatestMeasurementSink latest;
-  std::vector<MeasurementSink*> sinks{&can, &latest};
+  std::vector<MeasurementSink*> sinks{&can_status, &latest};
   if (csv) sinks.push_back(csv.get());
   std::unique_ptr<PlotSink> plots;
   if (c.plots_enabled) {
@@ -136,6 +145,10 @@ int run_daemon(const RunOptions& o) {
                log ? (", candump log to " + (c.sinks.candump == "-" ? std::string("stdout") : c.sinks.candump)) : "",
                recorder ? ", recording to " + recorder->directory() : "");
   pipeline.start();
+  if (stalling) {
+    stalling->arm();
+    spdlog::warn("test switch: the match stage stalls after {} pairs", *o.test_stall_match_after);
+  }
   for (const auto& w : pipeline.placement_warnings()) spdlog::warn("thread placement: {}", w);
 
   // The main thread supervises: readiness, watchdog, status line, stop conditions.
@@ -195,6 +208,10 @@ void add_run_command(CLI::App& app, int& exit_code) {
   cmd->add_option("--engine", o->engine, "Disparity engine (measurement.engine)")
       ->check(CLI::IsMember({"bm", "sgbm", "sgbm3way", "hh4", "hh"}));
   cmd->add_flag("--no-dic", o->no_dic, "No sub-pixel refinement (measurement.dic: false)");
+  // Hidden (empty group): a test switch, never for a vehicle. The watchdog test stalls a stage with it.
+  cmd->add_option("--test-stall-match-after", o->test_stall_match_after,
+                  "Tests only: the match stage stops returning after N pairs")
+      ->group("");
   cmd->callback([o, &exit_code] { exit_code = run_daemon(*o); });
 }
 

@@ -43,6 +43,21 @@ TEST(Config, ShippedFileEqualsEmbeddedDefault) {
   EXPECT_EQ(text, default_config_text());
 }
 
+// What `cmake --install` puts in /etc/rutd: the default, but CAN frames to can0 instead of stdout (which
+// the journal would keep, a line per frame) and one summary a minute.
+TEST(Config, InstalledFileSendsOnCanAndLogsSummaries) {
+  const RutdConfig vehicle = load_config(RUTD_INSTALLED_CONFIG);
+  const RutdConfig bench = parse_config(default_config_text(), "(embedded default)");
+  EXPECT_EQ(vehicle.sinks.socketcan, "can0");
+  EXPECT_TRUE(vehicle.sinks.candump.empty());
+  EXPECT_EQ(vehicle.logging.stats_period_s, 60);
+  EXPECT_EQ(vehicle.logging.level, "info");
+  EXPECT_EQ(vehicle.source, bench.source);
+  EXPECT_EQ(vehicle.measurement.engine, bench.measurement.engine);
+  EXPECT_EQ(vehicle.pipeline.status_period, bench.pipeline.status_period);
+  EXPECT_EQ(vehicle.can.source_address, bench.can.source_address);
+}
+
 TEST(Config, ValuesAreRead) {
   const RutdConfig c = parse_config(
       "source:\n  type: replay\n  replay:\n    dir: /data/run1\n    loop: true\n"

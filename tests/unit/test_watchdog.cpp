@@ -14,6 +14,7 @@
 #include <gtest/gtest.h>
 
 #include "daemon/latest_measurement_sink.hpp"
+#include "daemon/no_output_status_sink.hpp"
 #include "daemon/service_notifier.hpp"
 #include "daemon/supervisor.hpp"
 #include "pipeline/realtime_pipeline.hpp"
@@ -156,6 +157,110 @@ TEST(Watchdog, HungStageStopsThePingsAndRecoveryResumesThem) {
   unsetenv("NOTIFY_SOCKET");
   unsetenv("WATCHDOG_USEC");
   unsetenv("WATCHDOG_PID");
+}
+
+// Points NOTIFY_SOCKET and WATCHDOG_USEC (200 ms) at a socket of its own for one test, as systemd does.
+class NotifyEnvironment {
+ public:
+  NotifyEnvironment() : sock_((tmp_.path() / "notify").string()) {
+    setenv("NOTIFY_SOCKET", (tmp_.path() / "notify").c_str(), 1);
+    setenv("WATCHDOG_USEC", "200000", 1);
+    setenv("WATCHDOG_PID", std::to_string(getpid()).c_str(), 1);
+  }
+  ~NotifyEnvironment() {
+    unsetenv("NOTIFY_SOCKET");
+    unsetenv("WATCHDOG_USEC");
+    unsetenv("WATCHDOG_PID");
+  }
+  NotifySocket& sock() { return sock_; }
+
+ private:
+  test::TempDir tmp_;
+  NotifySocket sock_;
+};
+
+// systemd arms the watchdog at the first WATCHDOG=1, even while the unit is still activating: a ping
+// before READY=1 would let a slow start be killed as a hang. Here the first pairs never come out of the
+// stages (a slow first measurement looks the same), so the pipeline counts as stalled after 200 ms.
+TEST(Supervisor, NoWatchdogPingBeforeReady) {
+  NotifyEnvironment env;
+  ServiceNotifier notifier;
+  Supervisor supervisor(notifier, 200ms, 1000ms);
+  LatestMeasurementSink latest;  // nothing good published: READY=1 only at the 1 s start-up limit
+  PipelineStats s;
+  std::int64_t t = 0;
+  for (; t < 1000 * kMs; t += 20 * kMs) {
+    ++s.acquired, ++s.status_sent;
+    supervisor.tick(s, latest, t);
+    env.sock().poll();
+  }
+  EXPECT_EQ(env.sock().take_ready(), 0);
+  EXPECT_EQ(env.sock().take_watchdog(), 0) << "no ping may arm the watchdog before READY=1";
+  ++s.acquired, ++s.status_sent;
+  EXPECT_FALSE(supervisor.tick(s, latest, t)) << "still stalled at the start-up limit";
+  env.sock().poll();
+  EXPECT_EQ(env.sock().take_ready(), 1) << "ready when the start-up time is up";
+  EXPECT_EQ(env.sock().take_watchdog(), 0) << "stalled: READY=1, then no ping, and systemd's watchdog fires";
+  for (int i = 0; i < 10; ++i) {
+    t += 20 * kMs;
+    ++s.acquired, ++s.published, ++s.status_sent;
+    EXPECT_TRUE(supervisor.tick(s, latest, t));
+    env.sock().poll();
+  }
+  EXPECT_EQ(env.sock().take_watchdog(), 10) << "after READY=1, a ping every tick while pairs are handled";
+}
+
+// Every pair refused as stale: the pipeline moves, so the watchdog stays fed (a restart would not make
+// it faster), but the supervisor reports that nothing comes out, and when output resumes.
+TEST(Supervisor, StaleOnlyKeepsThePingsAndReportsNoOutput) {
+  NotifyEnvironment env;
+  ServiceNotifier notifier;
+  Supervisor supervisor(notifier, 200ms, 1000ms, 500ms);
+  LatestMeasurementSink latest;
+  PipelineStats s;
+  std::int64_t t = 0;
+  s.acquired = s.published = s.status_sent = 1;
+  for (; t < 1500 * kMs; t += 20 * kMs) {
+    ++s.acquired, ++s.stale[static_cast<std::size_t>(Stage::Match)], ++s.status_sent;
+    EXPECT_TRUE(supervisor.tick(s, latest, t)) << t;
+    EXPECT_EQ(supervisor.without_output(), t >= 500 * kMs) << t;
+    env.sock().poll();
+  }
+  EXPECT_EQ(env.sock().take_ready(), 1);
+  EXPECT_GE(env.sock().take_watchdog(), 20) << "pings go on while every pair is stale";
+  ++s.acquired, ++s.published, ++s.status_sent;
+  EXPECT_TRUE(supervisor.tick(s, latest, t));
+  EXPECT_FALSE(supervisor.without_output());
+}
+
+// Records the health of every status message.
+class StatusRecorder final : public MeasurementSink {
+ public:
+  void publish(const FrameWork&, const SensorHealth&) override { ++published; }
+  void publish_status(const SensorHealth& h, std::int64_t) override { last = h; }
+  int published = 0;
+  SensorHealth last;
+};
+
+TEST(NoOutputStatusSink, StatusFrameSaysNoMeasurementOnceOutputStops) {
+  StatusRecorder next;
+  NoOutputStatusSink sink(next, 300ms);
+  SensorHealth ok;
+  ok.last_status = RutStatus::Ok;
+  ok.stale_frames = true;
+  const std::int64_t t0 = monotonic_now_ns();
+  sink.publish_status(ok, t0);
+  EXPECT_EQ(next.last.last_status, RutStatus::Ok);
+  sink.publish_status(ok, t0 + 299 * kMs);
+  EXPECT_EQ(next.last.last_status, RutStatus::Ok);
+  sink.publish_status(ok, t0 + 300 * kMs);
+  EXPECT_EQ(next.last.last_status, RutStatus::NoMeasurement) << "nothing published for 300 ms";
+  EXPECT_TRUE(next.last.stale_frames) << "the pipeline's flags pass through";
+  FrameWork work;
+  sink.publish(work, ok);
+  EXPECT_EQ(next.published, 1);
+  sink.publish_status(ok, monotonic_now_ns());
+  EXPECT_EQ(next.last.last_status, RutStatus::Ok) << "published again";
 }
 
 }  // namespace

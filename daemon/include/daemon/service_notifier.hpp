@@ -1,6 +1,7 @@
 #pragma once
-// systemd integration (Type=notify): READY=1, STATUS=, STOPPING=1 and a watchdog that pings only while
-// the pipeline really works. Inert when the process was not started by systemd (no NOTIFY_SOCKET).
+// systemd integration (Type=notify): READY=1, STATUS=, STOPPING=1 and WATCHDOG=1 (when to ping is the
+// Supervisor's contract, daemon/supervisor.hpp). Inert when the process was not started by systemd (no
+// NOTIFY_SOCKET).
 // Called from the daemon's main thread only.
 #include <chrono>
 #include <cstdint>

@@ -2,23 +2,26 @@
 # Fetches Debian's own amd64 kernel (the versioned linux-image package that linux-image-amd64 depends
 # on) into CACHE_DIR/kernel without installing it:
 #   CACHE_DIR/kernel/vmlinux      uncompressed ELF kernel (qemu boots it ~2 s faster than vmlinuz)
-#   CACHE_DIR/kernel/modules/*.ko the few modules the guest loads (virtio-mmio, 9p, CAN, vcan)
+#   CACHE_DIR/kernel/modules/*.ko the few modules the guest loads (virtio-mmio, 9p, CAN, vcan, overlay)
 #   CACHE_DIR/kernel/release      the kernel release, e.g. 6.1.0-56-amd64
-# Idempotent: does nothing when those exist. Exit status 77 when the kernel cannot be had here (no apt,
+# Idempotent: does nothing when those exist with every module below. Exit status 77 when the kernel cannot be had here (no apt,
 # no network), with the reason on stderr, so callers can skip instead of failing.
 # Usage: fetch-kernel.sh CACHE_DIR
 set -euo pipefail
 
 cache=${1:?usage: fetch-kernel.sh CACHE_DIR}
 out=$cache/kernel
-[ -s "$out/vmlinux" ] && [ -s "$out/release" ] && exit 0
 
-# Modules in load order (there is no modules.dep in the guest: insmod, dependencies first).
+# Modules in load order (there is no modules.dep in the guest: insmod, dependencies first). overlay: the
+# systemd guest's root is the host's root under a writable tmpfs layer.
 modules=(
   drivers/virtio/virtio_ring drivers/virtio/virtio drivers/virtio/virtio_mmio
   fs/netfs/netfs fs/fscache/fscache net/9p/9pnet net/9p/9pnet_virtio fs/9p/9p
   drivers/net/can/dev/can-dev net/can/can net/can/can-raw drivers/net/can/vcan
+  fs/overlayfs/overlay
 )
+[ -s "$out/vmlinux" ] && [ -s "$out/release" ] &&
+  [ "$(cat "$out/modules/load-order" 2>/dev/null)" = "$(printf '%s\n' "${modules[@]##*/}")" ] && exit 0
 
 command -v apt-cache >/dev/null && command -v apt-get >/dev/null && command -v dpkg-deb >/dev/null ||
   { echo "fetch-kernel: apt-get/dpkg-deb not available" >&2; exit 77; }

@@ -6,6 +6,8 @@
 # RUTD-GUEST-START uptime_s=<guest seconds since boot> and ends with RUTD-GUEST-EXIT=<job status>.
 #
 # Usage: run-guest.sh CACHE_DIR JOB [TIMEOUT_S]
+# With RUTD_GUEST_INIT=systemd the guest boots the host's systemd as PID 1 instead, on an overlay root
+# (see init): JOB runs `--setup` chrooted before systemd starts, then as a unit of multi-user.target.
 #   CACHE_DIR  where the kernel and the initramfs are kept between runs (fetched or built on first use)
 #   TIMEOUT_S  wall-clock limit for one boot, default 90
 # Environment: RUTD_TSC_KHZ  the host's TSC rate in kHz, passed to the guest as tsc_early_khz= (without
@@ -42,6 +44,13 @@ flock -u 9
 
 tsc_khz=${RUTD_TSC_KHZ:-$(awk -F': *' '/^cpu MHz/ {printf "%d", $2 * 1000; exit}' /proc/cpuinfo)}
 append="console=ttyS0 quiet panic=-1 rdinit=/init rutd.job=$job"
+memory=512
+cpus=1
+if [ "${RUTD_GUEST_INIT:-}" = systemd ]; then
+  append="$append rutd.init=systemd systemd.show_status=false"
+  memory=1024
+  cpus=2
+fi
 [ -n "$tsc_khz" ] && [ "$tsc_khz" -gt 0 ] && append="$append tsc_early_khz=$tsc_khz tsc=reliable"
 
 # Hardware virtualisation only where the host kernel drives it itself; a nested /dev/kvm provided by
@@ -54,7 +63,7 @@ fi
 # microvm: no PCI or firmware to probe; ACPI on so that poweroff ends qemu instead of halting it.
 status=0
 timeout --kill-after=5 "$timeout_s" "$qemu" \
-  -M microvm,acpi=on -m 512 -smp 1 "${accel[@]}" \
+  -M microvm,acpi=on -m "$memory" -smp "$cpus" "${accel[@]}" \
   -nodefaults -no-user-config -display none -no-reboot \
   -chardev stdio,id=console,signal=off -serial chardev:console \
   -kernel "$cache/kernel/vmlinux" -initrd "$cache/initramfs.cpio" -append "$append" \

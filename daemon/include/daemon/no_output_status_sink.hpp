@@ -1,0 +1,38 @@
+#pragma once
+// Makes the status frame say when rutd has no output. The pipeline's SensorHealth::last_status is the
+// status of the last published measurement, however old: with every pair refused as stale for minutes
+// it would still read OK. This sink sits in front of the CAN sink and, once no measurement has been
+// published for `after`, sends NO_MEASUREMENT as the latest status (beside the pipeline's own NoCamera or
+// StaleFrames flag saying why) until a measurement is published again. Publish thread only, like every
+// sink.
+#include <chrono>
+#include <cstdint>
+
+#include "core/monotonic_clock.hpp"
+#include "pipeline/measurement_sink.hpp"
+
+namespace rutd {
+
+class NoOutputStatusSink final : public MeasurementSink {
+ public:
+  // `next` must outlive this sink.
+  NoOutputStatusSink(MeasurementSink& next, std::chrono::milliseconds after)
+      : next_(next), after_ns_(std::chrono::nanoseconds(after).count()) {}
+  void publish(const FrameWork& work, const SensorHealth& health) override {
+    published_ns_ = monotonic_now_ns();
+    next_.publish(work, health);
+  }
+  void publish_status(const SensorHealth& health, std::int64_t t_ns) override {
+    if (published_ns_ < 0) published_ns_ = t_ns;  // counts from the first status, not from boot
+    SensorHealth h = health;
+    if (t_ns - published_ns_ >= after_ns_) h.last_status = RutStatus::NoMeasurement;
+    next_.publish_status(h, t_ns);
+  }
+
+ private:
+  MeasurementSink& next_;
+  std::int64_t after_ns_;
+  std::int64_t published_ns_ = -1;
+};
+
+}  // namespace rutd

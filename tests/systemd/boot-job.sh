@@ -1,0 +1,173 @@
+#!/bin/sh
+# The job of the systemd boot test (boot-systemd.sh), inside the guest (tests/can/qemu/init with
+# rutd.init=systemd). Two phases:
+#   boot-job.sh WORK --setup   chrooted in the guest's root before systemd starts: installs rutd from
+#                              WORK/stage.tar (what `cmake --install` wrote), then does what the README
+#                              says (systemd-sysusers, systemd-tmpfiles, systemctl enable), and adds the
+#                              drop-ins for an emulated CPU (WORK/params: RUTD_OPTIONS, WATCHDOG_S).
+#   boot-job.sh WORK           as a unit of multi-user.target under systemd as PID 1: checks rutd.service
+#                              and prints one line per check,
+#                                RUTD-CHECK <name> <figure> <bound> PASS|FAIL
+#                              and exits 1 when one failed.
+# The shipped unit is never edited: everything the emulation needs is a drop-in.
+set -u
+work=$1
+. "$work/params"  # RUTD_OPTIONS, WATCHDOG_S, STALL_AFTER
+
+if [ "${2:-}" = --setup ]; then
+  set -e
+  # Debian's /lib is a link to /usr/lib: keep it one (GNU tar replaces it by a directory otherwise).
+  tar -C / --keep-directory-symlink --no-same-owner -xf "$work/stage.tar"
+  systemd-sysusers
+  systemd-tmpfiles --create rutd.conf
+  systemctl enable rutd.service
+  exec_start=$(sed -n 's/^ExecStart=//p' /lib/systemd/system/rutd.service)
+  mkdir -p /etc/systemd/system/rutd.service.d
+  cat >/etc/systemd/system/rutd.service.d/50-emulated-cpu.conf <<EOF
+# The boot test runs under qemu's emulation (TCG), about a hundred times slower than the vehicle PC: a
+# small synthetic image and the quickest engine (else every pair is stale: nothing would be published),
+# and a watchdog period that a working pipeline keeps on such a CPU.
+[Service]
+WatchdogSec=${WATCHDOG_S}s
+ExecStart=
+ExecStart=$exec_start $RUTD_OPTIONS
+EOF
+  exit 0
+fi
+
+unit=rutd.service
+failed=0
+now() { cut -d' ' -f1 /proc/uptime; }
+prop() { systemctl show -p "$1" --value "$unit"; }
+# seconds between two CLOCK_MONOTONIC microsecond figures
+us_to_s() { awk -v a="$1" -v b="$2" 'BEGIN { printf "%.2f", (b - a) / 1e6 }'; }
+sub() { awk -v a="$1" -v b="$2" 'BEGIN { printf "%.2f", b - a }'; }
+check() {  # check NAME FIGURE BOUND OK(0|1) [detail]
+  if [ "$4" = 1 ]; then verdict=PASS; else verdict=FAIL; failed=1; fi
+  echo "RUTD-CHECK $1 $2 $3 $verdict${5:+ $5}"
+}
+le() { awk -v a="$1" -v b="$2" 'BEGIN { exit !(a <= b) }' && echo 1 || echo 0; }
+# wait_for TIMEOUT_S COMMAND...: polls every 0.1 s; false when the time is up
+wait_for() {
+  limit=$(awk -v t="$(now)" -v d="$1" 'BEGIN { print t + d }')
+  shift
+  until "$@"; do
+    awk -v t="$(now)" -v l="$limit" 'BEGIN { exit !(t > l) }' && return 1
+    sleep 0.1
+  done
+}
+is_state() { [ "$(prop ActiveState)" = "$1" ]; }
+new_pid() { p=$(prop MainPID); [ "$p" != 0 ] && [ "$p" != "$1" ]; }
+journal_has() { journalctl -b -u "$unit" -o cat --no-pager | grep -q "$1"; }
+stall_dropin() {  # stall_dropin N: the test-only switch that stalls the match stage after N pairs
+  mkdir -p /run/systemd/system/$unit.d
+  printf '[Service]\nExecStart=\nExecStart=%s %s --test-stall-match-after %s\n' \
+    "$(sed -n 's/^ExecStart=//p' /lib/systemd/system/rutd.service)" "$RUTD_OPTIONS" "$1" \
+    >/run/systemd/system/$unit.d/60-stall.conf
+  systemctl daemon-reload
+}
+no_stall() {
+  rm -f /run/systemd/system/$unit.d/60-stall.conf
+  systemctl daemon-reload
+}
+
+# 1. Boot: multi-user.target waits for rutd's READY=1 (the target is ordered after what it wants).
+wait_for 300 sh -c '[ "$(systemctl show -p ActiveEnterTimestampMonotonic --value multi-user.target)" != 0 ]'
+boot_us=$(systemctl show -p ActiveEnterTimestampMonotonic --value multi-user.target)
+echo "RUTD-FIGURE boot_to_multi_user_s $(us_to_s 0 "$boot_us")"
+systemd-analyze time --no-pager 2>/dev/null | sed 's/^/RUTD-INFO /'
+wait_for 90 is_state active
+start_us=$(prop ExecMainStartTimestampMonotonic)
+active_us=$(prop ActiveEnterTimestampMonotonic)
+ready=0
+journal_has '^.* ready: ' && [ "$(prop ActiveState)" = active ] && [ "$(prop NRestarts)" = 0 ] && ready=1
+check time_to_active_s "$(us_to_s "$start_us" "$active_us")" "<=60(TimeoutStartSec)" "$ready" \
+  "(READY=1 logged: $(journal_has ' ready: ' && echo yes || echo no), restarts $(prop NRestarts))"
+
+# 2. Journal lines per minute of rutd in steady state, over a window after READY=1.
+window_s=20
+t0=$(date +%s)
+sleep "$window_s"
+t1=$(date +%s)
+lines=$(journalctl -u "$unit" --since "@$t0" --until "@$t1" -o cat --no-pager | wc -l)
+all=$(journalctl --since "@$t0" --until "@$t1" -o cat --no-pager | wc -l)
+per_min=$(awk -v n="$lines" -v s=$((t1 - t0)) 'BEGIN { printf "%.1f", n * 60 / s }')
+check journal_lines_per_min "$per_min" "<=10" "$(le "$per_min" 10)" \
+  "($lines rutd lines in $((t1 - t0)) s; all units: $all)"
+
+# 3. kill -9 of the main process: a new one within RestartSec (2 s) plus a margin of 4 s. The new one starts
+# with the test switch of step 4 (one start fewer under emulation).
+stall_dropin 0
+since=$(date +%s)
+pid=$(prop MainPID)
+t0=$(now)
+kill -9 "$pid"
+ok=0
+wait_for 30 new_pid "$pid" && ok=1
+t1=$(now)
+check new_pid_after_kill9_s "$(sub "$t0" "$t1")" "<=6" "$([ $ok = 1 ] && le "$(sub "$t0" "$t1")" 6 || echo 0)"
+
+# 4. The watchdog is armed only from READY=1 on: a first pair that never comes out of the stages (as on a
+# loaded machine at boot) keeps the unit activating, not killed, for well over the watchdog period. The
+# hold counts from the pipeline's start (rutd logs the test switch then), when rutd could first ping: a
+# ping then would arm the watchdog, and the stall detected one period later would stop the pings.
+wait_for 60 sh -c "journalctl -u rutd.service --since @$since -o cat | grep -q 'test switch: the match stage stalls'"
+pid=$(prop MainPID)
+restarts=$(prop NRestarts)
+hold=$((WATCHDOG_S * 5 / 2))
+t0=$(now)
+steady=1
+while awk -v t="$(now)" -v e="$(awk -v a="$t0" -v h="$hold" 'BEGIN { print a + h }')" 'BEGIN { exit !(t < e) }'; do
+  # READY=1 at rutd's 30 s start-up limit may fall at the end of the hold: active is fine, killed is not.
+  case $(prop ActiveState) in activating | active) ;; *) steady=0 ;; esac
+  [ "$(prop MainPID)" = "$pid" ] || steady=0
+  [ $steady = 1 ] || break
+  sleep 0.2
+done
+check activating_without_watchdog_kill_s "$(sub "$t0" "$(now)")" ">=$hold" \
+  "$([ $steady = 1 ] && [ "$(prop NRestarts)" = "$restarts" ] && echo 1 || echo 0)" \
+  "(state $(prop ActiveState), pid $pid -> $(prop MainPID))"
+
+# 5. A hung stage once ready: the pings stop, systemd kills rutd (Watchdog timeout) and restarts it.
+stall_dropin "$STALL_AFTER"
+systemctl restart "$unit"
+pid=$(prop MainPID)
+t_active=$(now)
+since=$(date +%s)
+# Back to the plain command line as soon as the stall shows, so that systemd's restart is a clean start.
+wait_for $((WATCHDOG_S * 2 + 20)) sh -c "journalctl -u rutd.service --since @$since -o cat | grep -q 'pipeline stalled'"
+no_stall
+ok=0
+wait_for $((WATCHDOG_S * 4 + 20)) new_pid "$pid" && ok=1
+t_new=$(now)
+killed=0
+journalctl -u "$unit" --since "@$since" --no-pager -o cat | grep -q "Watchdog timeout" && killed=1
+mono() { journalctl -u "$unit" --since "@$since" --no-pager -o short-monotonic | grep "$1" | tail -1 |
+  sed -n 's/^\[ *\([0-9.]*\)\].*/\1/p'; }
+# Stall detection (one period), systemd's timeout (one more), RestartSec, and room for the emulation.
+hang_bound=$((WATCHDOG_S * 4 + 15))
+check watchdog_kill_and_restart_s "$(sub "$t_active" "$t_new")" "<=$hang_bound" \
+  "$([ $ok = 1 ] && [ $killed = 1 ] && le "$(sub "$t_active" "$t_new")" "$hang_bound" || echo 0)" \
+  "(from READY=1 to the new process; uptime: ready $t_active, stall seen $(mono 'pipeline stalled'), \
+watchdog kill $(mono 'Watchdog timeout'), new process $t_new)"
+wait_for 90 is_state active
+echo "RUTD-FIGURE active_again_after_watchdog_kill_s $(sub "$t_new" "$(now)")"
+
+# 6. systemctl stop: SIGTERM, drained, exit 0 within TimeoutStopSec (5 s). The figure is systemd's, from
+# the stop request to the process gone; the systemctl call itself, under emulation, takes longer.
+t0=$(now)
+systemctl stop "$unit"
+t1=$(now)
+clean=0
+[ "$(prop Result)" = success ] && [ "$(prop ExecMainStatus)" = 0 ] && [ "$(prop ExecMainCode)" = 1 ] && clean=1
+stop_s=$(us_to_s "$(prop ActiveExitTimestampMonotonic)" "$(prop InactiveEnterTimestampMonotonic)")
+check stop_s "$stop_s" "<=5" "$([ $clean = 1 ] && le "$stop_s" 5 || echo 0)" \
+  "(result $(prop Result), exit status $(prop ExecMainStatus); systemctl stop took $(sub "$t0" "$t1") s)"
+
+# 7. The hardening as systemd rates it.
+score=$(systemd-analyze security --no-pager "$unit" 2>/dev/null | sed -n 's/.*Overall exposure level for [^:]*: *\([0-9.]*\).*/\1/p')
+check security_exposure "${score:-none}" "<=2.5" "$([ -n "$score" ] && le "$score" 2.5 || echo 0)"
+
+journalctl -b -u "$unit" --no-pager -o short-monotonic | cut -c1-240 | sed 's/^/RUTD-JOURNAL /'
+echo "RUTD-FIGURE job_done_uptime_s $(now)"
+exit "$failed"
