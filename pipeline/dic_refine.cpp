@@ -90,15 +90,30 @@ struct Layout {
 // The middle row of a column window over rows [row_begin, row_end).
 int column_centre(int row_begin, int row_end) { return (row_begin + row_end - 1) / 2; }
 
+// Column windows: rows [row_begin, row_end) in `count` blocks of nearly equal height (one block when
+// column_block_rows is 0); block b is rows [begin(b), begin(b + 1)).
+struct ColumnBlocks {
+  int row_begin, rows, count;
+  ColumnBlocks(const DicConfig& p, int row_begin_, int row_end)
+      : row_begin(row_begin_),
+        rows(row_end - row_begin_),
+        count(p.column_block_rows > 0 ? std::max(1, rows / p.column_block_rows) : 1) {}
+  int begin(int b) const { return row_begin + static_cast<int>(static_cast<long>(rows) * b / count); }
+};
+
 Layout make_layout(const cv::Mat& strip, const DicConfig& p, int row_begin, int row_end) {
   Layout l;
   l.cols = strip.cols;
   l.h = p.half_window;
   l.vectors = (2 * l.h + 1 + 3) / 4;
   if (p.column_windows) {
-    // The window is the measured rows: nothing outside them is read.
-    const int yc = column_centre(row_begin, row_end);
-    l.hh = std::max(1, std::max(yc - row_begin, row_end - 1 - yc));
+    // The windows are the measured rows (in blocks): nothing outside them is read.
+    const ColumnBlocks blocks(p, row_begin, row_end);
+    l.hh = 1;
+    for (int b = 0; b < blocks.count; ++b) {
+      const int y0 = blocks.begin(b), y1 = blocks.begin(b + 1) - 1, yc = column_centre(y0, y1 + 1);
+      l.hh = std::max({l.hh, yc - y0, y1 - yc});
+    }
     l.table_row0 = row_begin;
     l.table_rows = row_end - row_begin;
   } else {
@@ -746,9 +761,9 @@ void refine_rows(const DicWorkspace& ws, const Layout& l, cv::Mat& disparity, co
 
 // Column windows: the initial disparity of each column, the median of its valid values in rows
 // [row_begin, row_end); NaN when fewer than a quarter of them are valid.
-void column_starts(const cv::Mat& disparity, int row_begin, int row_end, DicWorkspace& ws) {
+void column_starts(const cv::Mat& disparity, int row_begin, int row_end, DicWorkspace& ws, float* start) {
   const int rows = row_end - row_begin;
-  ws.column_start.assign(static_cast<std::size_t>(disparity.cols), kNaN);
+  std::fill(start, start + disparity.cols, kNaN);
   ws.column_values.resize(static_cast<std::size_t>(rows));
   for (int x = 0; x < disparity.cols; ++x) {
     std::size_t n = 0;
@@ -759,7 +774,7 @@ void column_starts(const cv::Mat& disparity, int row_begin, int row_end, DicWork
     if (4 * static_cast<int>(n) < rows || n == 0) continue;
     const auto mid = ws.column_values.begin() + static_cast<std::ptrdiff_t>(n / 2);
     std::nth_element(ws.column_values.begin(), mid, ws.column_values.begin() + static_cast<std::ptrdiff_t>(n));
-    ws.column_start[static_cast<std::size_t>(x)] = *mid;
+    start[x] = *mid;
   }
 }
 
@@ -767,7 +782,7 @@ void column_starts(const cv::Mat& disparity, int row_begin, int row_end, DicWork
 // yc (shared by all stripes, read-only here). Writes the fitted disparity into every row of the column,
 // or NaN.
 template <int V>
-void refine_columns(const DicWorkspace& ws, const Layout& l, const float* sums, cv::Mat& disparity,
+void refine_columns(const DicWorkspace& ws, const Layout& l, const float* sums, const float* starts, cv::Mat& disparity,
                     const DicConfig& params, int y0, int y1, int x_begin, int x_end, DicScratch& scratch) {
   const Lanes<V> lanes(l.h);
   const int yc = column_centre(y0, y1 + 1);
@@ -775,7 +790,7 @@ void refine_columns(const DicWorkspace& ws, const Layout& l, const float* sums, 
   Warp previous;
   ColumnCache cache{scratch.target_sums.data()};
   for (int x = x_begin; x < x_end; ++x) {
-    const float d0 = ws.column_start[static_cast<std::size_t>(x)];
+    const float d0 = starts[x];
     bool ok = false;
     PixelResult result;
     if (std::isfinite(d0)) {
@@ -800,8 +815,8 @@ void refine_columns(const DicWorkspace& ws, const Layout& l, const float* sums, 
   }
 }
 
-using ColumnsFunction = void (*)(const DicWorkspace&, const Layout&, const float*, cv::Mat&, const DicConfig&, int, int,
-                                 int, int, DicScratch&);
+using ColumnsFunction = void (*)(const DicWorkspace&, const Layout&, const float*, const float*, cv::Mat&,
+                                 const DicConfig&, int, int, int, int, DicScratch&);
 
 template <int... V>
 ColumnsFunction columns_function(int vectors, std::integer_sequence<int, V...>) {
@@ -851,7 +866,10 @@ DicStats refine_disparity_dic(const cv::Mat& left_strip, const cv::Mat& right_st
   ws.right_poly.create(std::max(1, layout.table_rows), 4 * layout.cols, CV_32FC1);
 
   // Row stripes, or with column windows column stripes (the rows are one window).
-  const int items = params.column_windows ? disparity.cols : row_end - row_begin;
+  const int items = !params.column_windows ? row_end - row_begin
+                    : ColumnBlocks(params, row_begin, row_end).count > 1
+                        ? ColumnBlocks(params, row_begin, row_end).count
+                        : disparity.cols;
   const int stripes = params.parallel ? std::max(1, std::min(cv::getNumThreads(), items)) : 1;
   if (ws.scratch.size() < static_cast<std::size_t>(stripes)) ws.scratch.resize(static_cast<std::size_t>(stripes));
   for (int s = 0; s < stripes; ++s) {
@@ -872,16 +890,33 @@ DicStats refine_disparity_dic(const cv::Mat& left_strip, const cv::Mat& right_st
       build_table_rows(left_strip, right_strip, 4 * q, std::min(4, layout.table_rows - 4 * q), layout, ws, buffer);
   });
   if (params.column_windows && row_end > row_begin) {
-    column_starts(disparity, row_begin, row_end, ws);
-    // One grid row: the sums are computed once and shared by the stripes.
-    float* sums = ws.scratch[0].column_sums.data();
-    column_sums(ws, layout, row_begin, row_end - 1, column_centre(row_begin, row_end), sums);
+    const ColumnBlocks blocks(params, row_begin, row_end);
+    const auto cols = static_cast<std::size_t>(disparity.cols);
+    ws.column_start.resize(cols * blocks.count);
+    for (int b = 0; b < blocks.count; ++b)
+      column_starts(disparity, blocks.begin(b), blocks.begin(b + 1), ws, ws.column_start.data() + b * cols);
     const ColumnsFunction refine_cols =
         columns_function(layout.vectors, std::make_integer_sequence<int, kMaxVectors>{});
-    for_stripes(stripes, disparity.cols, [&](int s, int a, int b) {
-      refine_cols(ws, layout, sums, disparity, params, row_begin, row_end - 1, a, b,
-                  ws.scratch[static_cast<std::size_t>(s)]);
-    });
+    if (blocks.count == 1) {
+      // One block (a strip): the sums once, shared by column stripes.
+      float* sums = ws.scratch[0].column_sums.data();
+      column_sums(ws, layout, row_begin, row_end - 1, column_centre(row_begin, row_end), sums);
+      for_stripes(stripes, disparity.cols, [&](int s, int a, int b) {
+        refine_cols(ws, layout, sums, ws.column_start.data(), disparity, params, row_begin, row_end - 1, a, b,
+                    ws.scratch[static_cast<std::size_t>(s)]);
+      });
+    } else {
+      // Blocks of rows (full frame): a stripe of blocks per thread, each with its own sums.
+      for_stripes(stripes, blocks.count, [&](int s, int a, int b) {
+        DicScratch& scratch = ws.scratch[static_cast<std::size_t>(s)];
+        for (int k = a; k < b; ++k) {
+          const int y0 = blocks.begin(k), y1 = blocks.begin(k + 1) - 1;
+          column_sums(ws, layout, y0, y1, column_centre(y0, y1 + 1), scratch.column_sums.data());
+          refine_cols(ws, layout, scratch.column_sums.data(), ws.column_start.data() + k * cols, disparity, params, y0,
+                      y1, 0, disparity.cols, scratch);
+        }
+      });
+    }
   } else {
     // Interleaved rows per stripe would share cache lines of `disparity`; contiguous blocks do not.
     const RowsFunction refine = rows_function(layout.vectors, std::make_integer_sequence<int, kMaxVectors>{});

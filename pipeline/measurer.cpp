@@ -15,15 +15,17 @@ using Clock = std::chrono::steady_clock;
 
 double ms_since(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
 
-bool uses_column_windows(const MeasurerConfig& config, StripRoi strip) {
-  return config.dic && config.column_windows && strip.rows <= MeasurerConfig::kMaxColumnWindowRows;
+bool uses_column_windows(const MeasurerConfig& config) { return config.dic && config.column_windows; }
+
+int column_block_rows(StripRoi strip) {
+  return strip.rows <= MeasurerConfig::kMaxColumnWindowRows ? 0 : MeasurerConfig::kColumnBlockRows;
 }
 
 // Rows matched beyond the measured strip on each side, so the engines' blocks and the DIC window see
 // real image rows rather than a replicated border. Column windows read only the measured rows.
-int margin_for(const MeasurerConfig& config, StripRoi strip) {
+int margin_for(const MeasurerConfig& config) {
   const int block = config.engine_config.block_size > 0 ? config.engine_config.block_size : 11;
-  if (uses_column_windows(config, strip)) return block / 2 + 2;
+  if (uses_column_windows(config)) return block / 2 + 2;
   return std::max({block / 2, config.dic_config.half_window, config.dic_config.half_height}) + 2;
 }
 
@@ -40,7 +42,7 @@ StripRoi measured_strip(const StereoCalibration& calibration, const MeasurerConf
 
 StripRoi matched_strip(const StereoCalibration& calibration, const MeasurerConfig& config) {
   const StripRoi strip = measured_strip(calibration, config);
-  const int margin = margin_for(config, strip);
+  const int margin = margin_for(config);
   const int row0 = std::max(0, strip.row0 - margin);
   const int row1 = std::min(calibration.image_size.height, strip.row0 + strip.rows + margin);
   return StripRoi{row0, row1 - row0};
@@ -170,7 +172,8 @@ void StereoMeasurer::match_in_band(FrameWork& w, MatchContext& context, bool reu
   DicConfig dic = config_.dic_config;
   dic.row_begin = config_.strip.row0 - geometry_.roi().row0;
   dic.row_end = dic.row_begin + config_.strip.rows;
-  dic.column_windows = uses_column_windows(config_, config_.strip);
+  dic.column_windows = uses_column_windows(config_);
+  dic.column_block_rows = column_block_rows(config_.strip);
 
   auto t0 = Clock::now();
   w.diag.starts_reused = reuse;

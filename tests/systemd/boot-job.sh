@@ -18,6 +18,10 @@ if [ "${2:-}" = --setup ]; then
   set -e
   # Debian's /lib is a link to /usr/lib: keep it one (GNU tar replaces it by a directory otherwise).
   tar -C / --keep-directory-symlink --no-same-owner -xf "$work/stage.tar"
+  # The guest has no cameras: the installed configuration's source (aravis) becomes the synthetic one,
+  # as an integrator sets it up on a bench. Everything else stays as installed.
+  sed -i 's/^  type: aravis /  type: synthetic/; s|^calibration: /etc/rutd/calibration.yaml|calibration: ""|' /etc/rutd/rutd.yaml
+  grep -q '^  type: synthetic' /etc/rutd/rutd.yaml
   systemd-sysusers
   systemd-tmpfiles --create rutd.conf
   systemctl enable rutd.service

@@ -43,16 +43,35 @@ TEST(Config, ShippedFileEqualsEmbeddedDefault) {
   EXPECT_EQ(text, default_config_text());
 }
 
-// What `cmake --install` puts in /etc/rutd: the default, but CAN frames to can0 instead of stdout (which
-// the journal would keep, a line per frame) and one summary a minute.
+// What `cmake --install` puts in /etc/rutd: the default, but the cameras and their calibration as the
+// source, CAN frames to can0 instead of stdout (which the journal would keep, a line per frame) and one
+// summary a minute.
 TEST(Config, InstalledFileSendsOnCanAndLogsSummaries) {
-  const RutdConfig vehicle = load_config(RUTD_INSTALLED_CONFIG);
+  // As installed it refuses to start until the integrator names the cameras, saying which key to set.
+  try {
+    load_config(RUTD_INSTALLED_CONFIG);
+    ADD_FAILURE() << "the installed configuration started without cameras";
+  } catch (const std::exception& e) {
+    EXPECT_NE(std::string(e.what()).find("source.aravis.left"), std::string::npos) << e.what();
+  }
+  std::ifstream in(RUTD_INSTALLED_CONFIG);
+  std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  for (const std::string key : {"left", "right"}) {
+    const std::string empty = "    " + key + ": \"\"";
+    const auto at = text.find(empty);
+    ASSERT_NE(at, std::string::npos) << key;
+    text.replace(at, empty.size(), "    " + key + ": cam-" + key);
+  }
+  const RutdConfig vehicle = parse_config(text, RUTD_INSTALLED_CONFIG);
   const RutdConfig bench = parse_config(default_config_text(), "(embedded default)");
   EXPECT_EQ(vehicle.sinks.socketcan, "can0");
   EXPECT_TRUE(vehicle.sinks.candump.empty());
   EXPECT_EQ(vehicle.logging.stats_period_s, 60);
   EXPECT_EQ(vehicle.logging.level, "info");
-  EXPECT_EQ(vehicle.source, bench.source);
+  // Only cameras are measured on a vehicle: the synthetic bench never reaches its bus by default.
+  EXPECT_EQ(bench.source, SourceKind::Synthetic);
+  EXPECT_EQ(vehicle.source, SourceKind::Aravis);
+  EXPECT_EQ(vehicle.calibration, "/etc/rutd/calibration.yaml");
   EXPECT_EQ(vehicle.measurement.engine, bench.measurement.engine);
   EXPECT_EQ(vehicle.pipeline.status_period, bench.pipeline.status_period);
   EXPECT_EQ(vehicle.can.source_address, bench.can.source_address);

@@ -48,6 +48,11 @@ struct DicConfig {
   // the column's valid initial disparities (a column with fewer than a quarter valid is rejected).
   // half_height, step and row_step are ignored; half_window still sets the width.
   bool column_windows = false;
+  // With column_windows: rows [row_begin, row_end) split into blocks of about this many rows (at least
+  // this many), one window per column and block, each block's rows fitted by its own warp (full frame,
+  // surface maps: every pixel gets a refined disparity at a twentieth of per-pixel windows' cost).
+  // 0: one block.
+  int column_block_rows = 0;
 };
 
 struct DicStats {
