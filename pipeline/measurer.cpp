@@ -54,7 +54,7 @@ StereoMeasurer::StereoMeasurer(const StereoCalibration& calibration, const Measu
 
 MatchContext StereoMeasurer::make_match_context() const {
   MatchContext context;
-  context.engine = make_cpu_engine(config_.engine, config_.engine_config);
+  context.engine = make_engine(config_.engine, config_.engine_config);
   return context;
 }
 
