@@ -1,6 +1,7 @@
 #include "gpu_engine.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <limits>
 #include <stdexcept>
@@ -35,11 +36,34 @@ class GpuEngine : public DisparityEngine {
   EngineKind kind() const override { return fallback_ ? EngineKind::SgmRef : EngineKind::Gpu; }
 
   void compute(const cv::Mat& left, const cv::Mat& right, DisparityBand band, cv::Mat& disparity) override {
+    run(left, right, band, nullptr, disparity);
+  }
+
+  bool compute_refined(const cv::Mat& left, const cv::Mat& right, DisparityBand band, const DicConfig& dic,
+                       cv::Mat& disparity, DicStats& stats) override {
+    const gpu::DicParams p = dic_params(dic, left.rows);
+    if (fallback_ || !gpu::check_dic_params(p).empty()) return false;
+    if (!run(left, right, band, &p, disparity)) return false;
+    stats = DicStats{};
+    for (int y = 0; y < disparity.rows; ++y) {
+      const float* d = disparity.ptr<float>(y);
+      for (int x = 0; x < disparity.cols; ++x) stats.refined += !std::isnan(d[x]);
+    }
+    return true;
+  }
+
+ private:
+  // False when the frame went to the fallback (unrefined).
+  bool run(const cv::Mat& left, const cv::Mat& right, DisparityBand band, const gpu::DicParams* dic,
+           cv::Mat& disparity) {
     disparity.create(left.size(), CV_32FC1);
-    if (fallback_) return fallback_->compute(left, right, band, disparity);
+    if (fallback_) {
+      fallback_->compute(left, right, band, disparity);
+      return false;
+    }
     if (!matchable(left, right, band, params_)) {
       disparity.setTo(std::numeric_limits<float>::quiet_NaN());
-      return;
+      return true;
     }
     // Buffers are sized for the strip and the widest band seen; a new size or a wider band reallocates
     // once (start-up, or the band estimate widening), never per frame in steady state.
@@ -50,16 +74,17 @@ class GpuEngine : public DisparityEngine {
         sgm_ = std::make_unique<gpu::VulkanSgm>(config_.gpu_device, left.cols, left.rows,
                                                 std::min(max_disparities_, gpu::kMaxDisparities));
       } catch (const gpu::GpuError& e) {
-        return fall_back(e.what(), left, right, band, disparity);
+        fall_back(e.what(), left, right, band, disparity);
+        return false;
       }
     }
     const gpu::GpuStatus s = sgm_->compute(view(left), view(right), {band.min_disparity, band.num_disparities}, params_,
-                                           disparity.ptr<float>(), disparity.step1());
-    if (s != gpu::GpuStatus::Ok)
-      fall_back(sgm_->device().name + ": " + std::string(gpu::to_string(s)), left, right, band, disparity);
+                                           dic, disparity.ptr<float>(), disparity.step1());
+    if (s == gpu::GpuStatus::Ok) return true;
+    fall_back(sgm_->device().name + ": " + std::string(gpu::to_string(s)), left, right, band, disparity);
+    return false;
   }
 
- private:
   // A device that failed once is not trusted again: this frame and every later one go to the reference.
   void fall_back(const std::string& reason, const cv::Mat& left, const cv::Mat& right, DisparityBand band,
                  cv::Mat& disparity) {
@@ -89,6 +114,25 @@ gpu::SgmParams sgm_params(const EngineConfig& c) {
   if (c.disp12_max_diff == -2) p.lr_max_diff = -1;
   const std::string error = gpu::check_sgm_input(1, 1, gpu::SgmBand{0, 2}, p);
   if (!error.empty()) throw std::invalid_argument("disparity engine: " + error);
+  return p;
+}
+
+gpu::DicParams dic_params(const DicConfig& c, int rows) {
+  gpu::DicParams p;
+  p.half_window = c.half_window;
+  p.half_height = c.half_height > 0 ? c.half_height : c.half_window;
+  p.max_iterations = c.max_iterations;
+  p.tolerance_px = static_cast<float>(c.tolerance_px);
+  p.step = c.step;
+  p.row_step = c.row_step > 0 ? c.row_step : c.step;
+  p.row_begin = std::clamp(c.row_begin, 0, rows);
+  p.row_end = c.row_end < 0 ? rows : std::clamp(c.row_end, p.row_begin, rows);
+  p.first_order = c.first_order;
+  p.max_shift_px = static_cast<float>(c.max_shift_px);
+  p.max_gradient = static_cast<float>(c.max_gradient);
+  p.min_gradient = static_cast<float>(c.min_gradient);
+  p.min_zncc = static_cast<float>(c.min_zncc);
+  p.max_sigma_px = static_cast<float>(c.max_sigma_px);
   return p;
 }
 

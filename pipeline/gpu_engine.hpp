@@ -4,6 +4,7 @@
 // matching lives in gpu/ (OpenCV-free).
 #include <memory>
 
+#include "gpu/dic.hpp"
 #include "gpu/sgm.hpp"
 #include "pipeline/disparity.hpp"
 
@@ -11,6 +12,9 @@ namespace rutd {
 
 // Throws std::invalid_argument for parameters the matcher refuses.
 gpu::SgmParams sgm_params(const EngineConfig& config);
+
+// DicConfig resolved for the GPU's DIC on a strip of `rows` rows (half_height, row_step, row_end given).
+gpu::DicParams dic_params(const DicConfig& config, int rows);
 
 class SgmReferenceEngine : public DisparityEngine {
  public:

@@ -26,9 +26,15 @@ const std::uint32_t kWtaSpv[] =
 const std::uint32_t kLrMedianSpv[] =
 #include "lr_median.comp.inc"
     ;
+const std::uint32_t kBsplineSpv[] =
+#include "bspline.comp.inc"
+    ;
+const std::uint32_t kDicSpv[] =
+#include "dic.comp.inc"
+    ;
 
 constexpr int kSlots = 2;
-constexpr std::uint32_t kTimestamps = 7;  // start, after upload, census, aggregate, wta, lr/median, download
+constexpr std::uint32_t kTimestamps = 8;  // start, after upload, census, aggregate, wta, lr/median, dic, download
 
 // A Vulkan info structure: zeroed, its type set.
 template <class T>
@@ -160,6 +166,10 @@ struct LrMedianPush {
 struct CensusPush {
   std::int32_t width, height, words_per_row;
 };
+struct DicPush {
+  std::int32_t width, height, words_per_row, h, hh, max_iterations, step, row_step, row_begin, row_end, first_order;
+  float tolerance, max_shift, max_gradient, min_gradient, min_zncc, max_sigma;
+};
 
 std::uint32_t groups(int n, int size) { return static_cast<std::uint32_t>((n + size - 1) / size); }
 
@@ -207,6 +217,7 @@ struct VulkanSgm::Impl {
   VkQueryPool queries = VK_NULL_HANDLE;
   // Device buffers, shared by both slots (their work is serialised on the one queue).
   Buffer image_left, image_right, census_left, census_right, sums, disp_left, disp_right, disparity;
+  Buffer spline_left, spline_right, refined;  // DIC
   struct Slot {
     Buffer upload;    // host-visible: left then right image, packed words
     Buffer download;  // host-visible: the disparity, floats
@@ -216,13 +227,13 @@ struct VulkanSgm::Impl {
   };
   std::array<Slot, kSlots> slots;
   int next_slot = 0;
-  Kernel census, aggregate, wta, lr_median;
+  Kernel census, aggregate, wta, lr_median, bspline, dic;
   bool lost = false;
 
   ~Impl() {
     if (device) {
       vkDeviceWaitIdle(device);
-      for (Kernel* k : {&census, &aggregate, &wta, &lr_median}) {
+      for (Kernel* k : {&census, &aggregate, &wta, &lr_median, &bspline, &dic}) {
         vkDestroyPipeline(device, k->pipeline, nullptr);
         vkDestroyPipelineLayout(device, k->layout, nullptr);
         vkDestroyDescriptorSetLayout(device, k->set_layout, nullptr);
@@ -421,6 +432,9 @@ struct VulkanSgm::Impl {
     disp_left = make_buffer(pixels * 4, storage, false);
     disp_right = make_buffer(pixels * 4, storage, false);
     disparity = make_buffer(pixels * 4, storage, false);
+    spline_left = make_buffer(pixels * 4, storage, false);
+    spline_right = make_buffer(pixels * 4, storage, false);
+    refined = make_buffer(pixels * 4, storage, false);
 
     auto pi = info_struct<VkCommandPoolCreateInfo>(VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO);
     pi.flags = VK_COMMAND_POOL_CREATE_RESET_COMMAND_BUFFER_BIT;
@@ -443,9 +457,9 @@ struct VulkanSgm::Impl {
       qi.queryCount = kTimestamps * kSlots;
       check(vkCreateQueryPool(device, &qi, nullptr, &queries), "vkCreateQueryPool");
     }
-    const VkDescriptorPoolSize size{VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 16};
+    const VkDescriptorPoolSize size{VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 32};
     auto dpi = info_struct<VkDescriptorPoolCreateInfo>(VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO);
-    dpi.maxSets = 4;
+    dpi.maxSets = 6;
     dpi.poolSizeCount = 1;
     dpi.pPoolSizes = &size;
     check(vkCreateDescriptorPool(device, &dpi, nullptr, &descriptors), "vkCreateDescriptorPool");
@@ -456,6 +470,10 @@ struct VulkanSgm::Impl {
     wta = make_kernel(kWtaSpv, sizeof kWtaSpv, sizeof(WtaPush), {&sums, &disp_left, &disp_right});
     lr_median =
         make_kernel(kLrMedianSpv, sizeof kLrMedianSpv, sizeof(LrMedianPush), {&disp_left, &disp_right, &disparity});
+    bspline = make_kernel(kBsplineSpv, sizeof kBsplineSpv, sizeof(CensusPush),
+                          {&image_left, &image_right, &spline_left, &spline_right});
+    dic = make_kernel(kDicSpv, sizeof kDicSpv, sizeof(DicPush),
+                      {&image_left, &spline_left, &spline_right, &disparity, &refined});
   }
 
   void barrier(VkCommandBuffer cb, VkPipelineStageFlags src, VkPipelineStageFlags dst) {
@@ -481,7 +499,7 @@ struct VulkanSgm::Impl {
     vkCmdDispatch(cb, x, y, z);
   }
 
-  VkResult record(int slot, SgmBand band, const SgmParams& params) {
+  VkResult record(int slot, SgmBand band, const SgmParams& params, const DicParams* dic_params) {
     const VkCommandBuffer cb = slots[static_cast<std::size_t>(slot)].commands;
     constexpr VkPipelineStageFlags compute = VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT;
     constexpr VkPipelineStageFlags transfer = VK_PIPELINE_STAGE_TRANSFER_BIT;
@@ -503,6 +521,7 @@ struct VulkanSgm::Impl {
     barrier(cb, transfer, compute);
     stamp(cb, slot, 1);
     dispatch(cb, census, CensusPush{width, height, words_per_row}, groups(width, 16), groups(height, 8), 2);
+    if (dic_params) dispatch(cb, bspline, CensusPush{width, height, words_per_row}, groups(height, 64), 2, 1);
     barrier(cb, compute, compute);
     stamp(cb, slot, 2);
     // The directions add into the sums concurrently (aggregate.comp): zero them first.
@@ -522,13 +541,23 @@ struct VulkanSgm::Impl {
     stamp(cb, slot, 4);
     dispatch(cb, lr_median, LrMedianPush{width, height, params.lr_max_diff, params.median ? 1 : 0}, groups(width, 64),
              static_cast<std::uint32_t>(height), 1);
-    barrier(cb, compute, transfer);
+    barrier(cb, compute, compute | transfer);
     stamp(cb, slot, 5);
+    if (dic_params) {
+      const DicParams& d = *dic_params;
+      const DicPush push{
+          width,          height,         words_per_row,  d.half_window, d.half_height,         d.max_iterations,
+          d.step,         d.row_step,     d.row_begin,    d.row_end,     d.first_order ? 1 : 0, d.tolerance_px,
+          d.max_shift_px, d.max_gradient, d.min_gradient, d.min_zncc,    d.max_sigma_px};
+      dispatch(cb, dic, push, groups(width, 64), static_cast<std::uint32_t>(height), 1);
+      barrier(cb, compute, transfer);
+    }
+    stamp(cb, slot, 6);
     const Buffer& down = slots[static_cast<std::size_t>(slot)].download;
     copy = VkBufferCopy{0, 0, down.size};
-    vkCmdCopyBuffer(cb, disparity.buffer, down.buffer, 1, &copy);
+    vkCmdCopyBuffer(cb, (dic_params ? refined : disparity).buffer, down.buffer, 1, &copy);
     barrier(cb, transfer, VK_PIPELINE_STAGE_HOST_BIT);
-    stamp(cb, slot, 6);
+    stamp(cb, slot, 7);
     return vkEndCommandBuffer(cb);
   }
 
@@ -596,12 +625,12 @@ int VulkanSgm::width() const { return impl_->width; }
 int VulkanSgm::height() const { return impl_->height; }
 
 GpuStatus VulkanSgm::submit(const ImageView& left, const ImageView& right, SgmBand band, const SgmParams& params,
-                            int& ticket) {
+                            const DicParams* dic, int& ticket) {
   Impl& m = *impl_;
   if (m.lost) return GpuStatus::DeviceLost;
   if (left.width != m.width || left.height != m.height || right.width != m.width || right.height != m.height ||
       !left.data || !right.data || band.num_disparities > m.max_disparities ||
-      !check_sgm_input(m.width, m.height, band, params).empty())
+      !check_sgm_input(m.width, m.height, band, params).empty() || (dic && !check_dic_params(*dic).empty()))
     return GpuStatus::InvalidInput;
   ticket = m.next_slot;
   Impl::Slot& slot = m.slots[static_cast<std::size_t>(ticket)];
@@ -618,7 +647,7 @@ GpuStatus VulkanSgm::submit(const ImageView& left, const ImageView& right, SgmBa
       std::memset(row + m.width, 0, row_bytes - static_cast<std::size_t>(m.width));
     }
   }
-  VkResult r = m.record(ticket, band, params);
+  VkResult r = m.record(ticket, band, params, dic);
   if (r == VK_SUCCESS) r = vkResetFences(m.device, 1, &slot.fence);
   if (r == VK_SUCCESS) {
     auto si = info_struct<VkSubmitInfo>(VK_STRUCTURE_TYPE_SUBMIT_INFO);
@@ -658,30 +687,47 @@ GpuStatus VulkanSgm::collect(int ticket, float* disparity, std::size_t stride, G
         return static_cast<double>(t[static_cast<std::size_t>(b)] - t[static_cast<std::size_t>(a)]) * m.timestamp_ns *
                1e-6;
       };
-      *times = GpuStageTimes{ms(0, 1), ms(1, 2), ms(2, 3), ms(3, 4), ms(4, 5), ms(5, 6)};
+      *times = GpuStageTimes{ms(0, 1), ms(1, 2), ms(2, 3), ms(3, 4), ms(4, 5), ms(5, 6), ms(6, 7)};
     }
   }
   return GpuStatus::Ok;
 }
 
 GpuStatus VulkanSgm::compute(const ImageView& left, const ImageView& right, SgmBand band, const SgmParams& params,
-                             float* disparity, std::size_t stride, GpuStageTimes* times) {
+                             const DicParams* dic, float* disparity, std::size_t stride, GpuStageTimes* times) {
   int ticket = 0;
-  const GpuStatus s = submit(left, right, band, params, ticket);
+  const GpuStatus s = submit(left, right, band, params, dic, ticket);
   if (s != GpuStatus::Ok) return s;
   return collect(ticket, disparity, stride, times);
 }
 
 GpuStatus VulkanSgm::compute_stages(const ImageView& left, const ImageView& right, SgmBand band,
-                                    const SgmParams& params, SgmStages& st) {
+                                    const SgmParams& params, const DicParams* dic, SgmStages& st) {
   Impl& m = *impl_;
   const auto pixels = static_cast<std::size_t>(m.width) * static_cast<std::size_t>(m.height);
   st.width = m.width;
   st.height = m.height;
   st.band = band;
   st.disparity.resize(pixels);
-  GpuStatus s = compute(left, right, band, params, st.disparity.data(), static_cast<std::size_t>(m.width));
+  st.refined.clear();
+  st.spline_left.clear();
+  st.spline_right.clear();
+  std::vector<float> out(pixels);
+  GpuStatus s = compute(left, right, band, params, dic, out.data(), static_cast<std::size_t>(m.width));
   if (s != GpuStatus::Ok) return s;
+  if (dic) {
+    st.refined = out;
+    st.spline_left.resize(pixels);
+    st.spline_right.resize(pixels);
+    for (auto [buffer, dst] :
+         {std::pair{&m.spline_left, st.spline_left.data()}, std::pair{&m.spline_right, st.spline_right.data()},
+          std::pair{&m.disparity, st.disparity.data()}}) {
+      const VkResult r = m.read_back(*buffer, dst, pixels * 4);
+      if (r != VK_SUCCESS) return m.fail(r);
+    }
+  } else {
+    st.disparity = out;
+  }
   st.census_left.resize(pixels * 2);
   st.census_right.resize(pixels * 2);
   st.sums.resize(pixels * static_cast<std::size_t>(band.num_disparities));

@@ -6,7 +6,9 @@
 // (tools/synthetic_pair.hpp) or read from 8-bit binary PGM files (--left/--right, one size then).
 // Needs only the Vulkan loader at run time.
 //   rutd-gpu-bench [--device NAME|INDEX] [--runs N] [--warmup N] [--sizes 640x480,1280x1024,640x48]
-//                  [--paths 2,4,8] [--disparities 64,128] [--left L.pgm --right R.pgm]
+//                  [--paths 2,4,8] [--disparities 64,128] [--left L.pgm --right R.pgm] [--no-dic]
+// With DIC (the default; 11x11 window, every pixel of every second row, as rutd's default DicConfig) the
+// B-spline prefilter runs with the census and counts there.
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
@@ -67,6 +69,7 @@ double ms_since(Clock::time_point t0) { return std::chrono::duration<double, std
 int main(int argc, char** argv) {
   std::string device, sizes = "640x480,1280x1024,640x48", paths = "2,4,8", disparities = "64,128", left_pgm, right_pgm;
   int runs = 200, warmup = 20;
+  bool use_dic = true;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     const bool more = i + 1 < argc;
@@ -78,6 +81,7 @@ int main(int argc, char** argv) {
     else if (a == "--disparities" && more) disparities = argv[++i];
     else if (a == "--left" && more) left_pgm = argv[++i];
     else if (a == "--right" && more) right_pgm = argv[++i];
+    else if (a == "--no-dic") use_dic = false;
     else {
       std::fprintf(stderr, "usage: see the comment at the top of gpu_bench.cpp\n");
       return 2;
@@ -109,8 +113,8 @@ int main(int argc, char** argv) {
       if (!header) {
         std::printf("device %d: %s (%s, subgroup %u); median of %d runs after %d warm-up, ms\n", sgm->device().index,
                     sgm->device().name.c_str(), sgm->device().type.c_str(), sgm->device().subgroup_size, runs, warmup);
-        std::printf("%-10s %5s %5s | %7s %7s %9s %7s %7s %8s | %9s %8s | %9s\n", "size", "disp", "paths", "upload",
-                    "census", "aggregate", "wta", "lr+med", "download", "end2end", "Hz", "2-flight");
+        std::printf("%-10s %5s %5s | %7s %7s %9s %7s %7s %7s %8s | %9s %8s | %9s\n", "size", "disp", "paths", "upload",
+                    "census", "aggregate", "wta", "lr+med", "dic", "download", "end2end", "Hz", "2-flight");
         header = true;
       }
       const SgmBand band{0, nd};
@@ -121,11 +125,14 @@ int main(int argc, char** argv) {
       for (const std::string& ps : split(paths)) {
         SgmParams params;
         params.paths = std::atoi(ps.c_str());
-        std::vector<double> up, census, agg, wta, lrm, down, total;
+        std::vector<double> up, census, agg, wta, lrm, dict, down, total;
+        DicParams dic;
+        dic.row_step = 2;
+        const DicParams* dic_ptr = use_dic ? &dic : nullptr;
         for (int i = 0; i < warmup + runs; ++i) {
           GpuStageTimes t;
           const auto t0 = Clock::now();
-          const GpuStatus s = sgm->compute(l, r, band, params, out.data(), static_cast<std::size_t>(w), &t);
+          const GpuStatus s = sgm->compute(l, r, band, params, dic_ptr, out.data(), static_cast<std::size_t>(w), &t);
           const double ms = ms_since(t0);
           if (s != GpuStatus::Ok) {
             std::fprintf(stderr, "frame failed: %s\n", std::string(to_string(s)).c_str());
@@ -137,22 +144,23 @@ int main(int argc, char** argv) {
           agg.push_back(t.aggregate_ms);
           wta.push_back(t.wta_ms);
           lrm.push_back(t.lr_median_ms);
+          dict.push_back(t.dic_ms);
           down.push_back(t.download_ms);
           total.push_back(ms);
         }
         // Two in flight: submit frame i+1, then collect frame i.
         int tickets[2] = {0, 0};
         const auto t0 = Clock::now();
-        bool ok = sgm->submit(l, r, band, params, tickets[0]) == GpuStatus::Ok;
+        bool ok = sgm->submit(l, r, band, params, dic_ptr, tickets[0]) == GpuStatus::Ok;
         for (int i = 1; ok && i <= runs; ++i) {
-          if (i < runs) ok = sgm->submit(l, r, band, params, tickets[i % 2]) == GpuStatus::Ok;
+          if (i < runs) ok = sgm->submit(l, r, band, params, dic_ptr, tickets[i % 2]) == GpuStatus::Ok;
           ok = ok && sgm->collect(tickets[(i - 1) % 2], out.data(), static_cast<std::size_t>(w)) == GpuStatus::Ok;
         }
         const double flight_hz = ok ? 1000.0 * runs / ms_since(t0) : 0.0;
         const double e2e = median(total);
-        std::printf("%-10s %5d %5d | %7.3f %7.3f %9.3f %7.3f %7.3f %8.3f | %9.3f %8.0f | %9.0f\n", size.c_str(), nd,
-                    params.paths, median(up), median(census), median(agg), median(wta), median(lrm), median(down), e2e,
-                    1000.0 / e2e, flight_hz);
+        std::printf("%-10s %5d %5d | %7.3f %7.3f %9.3f %7.3f %7.3f %7.3f %8.3f | %9.3f %8.0f | %9.0f\n", size.c_str(),
+                    nd, params.paths, median(up), median(census), median(agg), median(wta), median(lrm), median(dict),
+                    median(down), e2e, 1000.0 / e2e, flight_hz);
         std::fflush(stdout);
       }
     }

@@ -1,8 +1,10 @@
 // rutd-gpu-check: every stage of the Vulkan matcher against the C++ reference (sgm.hpp) on randomised
 // pairs, sizes and parameters chosen to be awkward (odd widths, widths not a multiple of the workgroup,
 // minimum disparity != 0, bands wider than the image). Integer stages must be identical; so must the
-// float output (it is a fixed-point value / 64). Exit status: 0 all equal, 1 a difference, 2 usage,
-// 77 no usable Vulkan device (CTest's skip code). Needs only the Vulkan loader at run time.
+// matcher's float output (a fixed-point value / 64). The DIC stages run in float on both sides: B-spline
+// coefficients within 1e-3 relative, refined disparities within 1/64 px, and at most 0.5% of the pixels
+// refined on one side only (a rejection threshold met within rounding). Exit status: 0 all equal, 1 a difference, 2
+// usage, 77 no usable Vulkan device (CTest's skip code). Needs only the Vulkan loader at run time.
 //   rutd-gpu-check [--device NAME|INDEX] [--seed N] [--cases N]
 #include <cmath>
 #include <cstdio>
@@ -12,6 +14,7 @@
 #include <random>
 #include <string>
 
+#include "gpu/dic.hpp"
 #include "gpu/vulkan_sgm.hpp"
 #include "synthetic_pair.hpp"
 
@@ -31,6 +34,15 @@ long first_difference(const std::vector<T>& a, const std::vector<T>& b) {
     }
   }
   return -1;
+}
+
+// Largest |a - b| / max(1, |b|).
+double max_relative(const std::vector<float>& a, const std::vector<float>& b) {
+  double worst = a.size() == b.size() ? 0.0 : 1e30;
+  for (std::size_t i = 0; i < a.size() && i < b.size(); ++i)
+    worst = std::max(worst,
+                     std::abs(static_cast<double>(a[i]) - b[i]) / std::max(1.0, std::abs(static_cast<double>(b[i]))));
+  return worst;
 }
 
 struct Case {
@@ -76,6 +88,15 @@ int main(int argc, char** argv) {
     params.lr_max_diff = uni(-1, 2);
     params.median = k % 4 != 3;
     const SgmBand band{c.min_disparity, c.num_disparities};
+    DicParams dic;
+    dic.half_window = uni(2, 7);
+    dic.half_height = uni(1, 7);
+    dic.step = uni(1, 2);
+    dic.row_step = uni(1, 2);
+    dic.row_begin = uni(0, c.height / 4);
+    dic.row_end = c.height - uni(0, c.height / 4);
+    dic.first_order = k % 5 != 4;
+    dic.max_sigma_px = k % 2 == 0 ? 0.0f : 0.2f;
     try {
       sgm = std::make_unique<VulkanSgm>(device, c.width, c.height, c.num_disparities);
     } catch (const GpuError& e) {
@@ -95,7 +116,10 @@ int main(int argc, char** argv) {
     const ImageView r{pair.right.data(), c.width, c.height, static_cast<std::size_t>(c.width)};
     SgmStages ref, dev;
     sgm_reference(l, r, band, params, ref);
-    const GpuStatus s = sgm->compute_stages(l, r, band, params, dev);
+    bspline_reference(l, ref.spline_left);
+    bspline_reference(r, ref.spline_right);
+    dic_reference(l, ref.spline_left, ref.spline_right, ref.disparity, dic, ref.refined);
+    const GpuStatus s = sgm->compute_stages(l, r, band, params, &dic, dev);
     std::printf("case %2zu: %4dx%-4d band %3d+%-3d paths %d P1 %2d P2 %3d uniq %2d lr %2d median %d: ", k, c.width,
                 c.height, c.min_disparity, c.num_disparities, params.paths, params.p1, params.p2, params.uniqueness,
                 params.lr_max_diff, params.median ? 1 : 0);
@@ -119,11 +143,28 @@ int main(int argc, char** argv) {
       ok = false;
       std::printf("    %s differs first at element %ld\n", names[i], diffs[i]);
     }
-    long valid = 0;
-    for (float v : ref.disparity) valid += !std::isnan(v);
+    const double spline =
+        std::max(max_relative(dev.spline_left, ref.spline_left), max_relative(dev.spline_right, ref.spline_right));
+    long valid = 0, refined = 0, one_side = 0;
+    double worst = 0;
+    for (std::size_t i = 0; i < ref.refined.size(); ++i) {
+      valid += !std::isnan(ref.disparity[i]);
+      const bool a = !std::isnan(ref.refined[i]), b = !std::isnan(dev.refined[i]);
+      refined += a;
+      one_side += a != b;
+      if (a && b) worst = std::max(worst, std::abs(static_cast<double>(ref.refined[i]) - dev.refined[i]));
+    }
+    const bool dic_ok =
+        spline <= 1e-3 && worst <= 1.0 / 64 && one_side <= 0.005 * static_cast<double>(ref.refined.size());
+    if (!dic_ok) {
+      if (ok) std::printf("FAIL\n");
+      ok = false;
+      std::printf("    DIC: spline %.2g relative, refined %ld, on one side only %ld, largest difference %.4f px\n",
+                  spline, refined, one_side, worst);
+    }
     if (ok)
-      std::printf("identical (%.0f%% valid)\n",
-                  100.0 * static_cast<double>(valid) / static_cast<double>(ref.disparity.size()));
+      std::printf("identical; DIC within %.5f px, %ld of %ld on one side only (%.0f%% valid)\n", worst, one_side,
+                  refined, 100.0 * static_cast<double>(valid) / static_cast<double>(ref.disparity.size()));
     failures += !ok;
   }
   std::printf("%s: %d of %zu cases differ\n", failures ? "FAIL" : "PASS", failures, list.size());

@@ -51,6 +51,8 @@ struct SgmStages {
   std::vector<std::int32_t> disparity_left;              // 1/64 px after WTA, uniqueness, sub-pixel; -1 invalid
   std::vector<std::int32_t> disparity_right;             // whole px, right view; -1 none
   std::vector<float> disparity;                          // px after left-right check and median, NaN invalid
+  // With DIC (dic.hpp): both images' B-spline coefficients and the refined disparity (px, NaN invalid).
+  std::vector<float> spline_left, spline_right, refined;
 };
 
 // The reference stages, each from the previous one's output in `st` (census from the images). Allocates

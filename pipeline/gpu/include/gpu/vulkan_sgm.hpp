@@ -15,6 +15,7 @@
 #include <string_view>
 #include <vector>
 
+#include "gpu/dic.hpp"
 #include "gpu/sgm.hpp"
 
 namespace rutd::gpu {
@@ -40,7 +41,7 @@ std::vector<GpuDeviceInfo> list_gpu_devices();
 
 // Device time of each stage of one frame, ms (GPU timestamps; all 0 when the queue has none).
 struct GpuStageTimes {
-  double upload_ms = 0, census_ms = 0, aggregate_ms = 0, wta_ms = 0, lr_median_ms = 0, download_ms = 0;
+  double upload_ms = 0, census_ms = 0, aggregate_ms = 0, wta_ms = 0, lr_median_ms = 0, dic_ms = 0, download_ms = 0;
 };
 
 class VulkanSgm {
@@ -62,16 +63,19 @@ class VulkanSgm {
   // Two frames can be in flight: submit() copies the pair into the staging memory of slot `ticket`
   // (alternating 0, 1) and queues its work; collect() waits for that slot and copies the disparity (px,
   // NaN invalid; rows of `stride` floats) out. Submitting the next pair before collecting the current one
-  // overlaps its host copy with this frame's device work. Images must be width() x height().
-  GpuStatus submit(const ImageView& left, const ImageView& right, SgmBand band, const SgmParams& params, int& ticket);
+  // overlaps its host copy with this frame's device work. Images must be width() x height(). dic: refine
+  // on the device (dic.hpp; census also runs the B-spline prefilter) and return the refined disparity;
+  // nullptr: return the matcher's.
+  GpuStatus submit(const ImageView& left, const ImageView& right, SgmBand band, const SgmParams& params,
+                   const DicParams* dic, int& ticket);
   GpuStatus collect(int ticket, float* disparity, std::size_t stride, GpuStageTimes* times = nullptr);
   // submit() then collect().
   GpuStatus compute(const ImageView& left, const ImageView& right, SgmBand band, const SgmParams& params,
-                    float* disparity, std::size_t stride, GpuStageTimes* times = nullptr);
+                    const DicParams* dic, float* disparity, std::size_t stride, GpuStageTimes* times = nullptr);
 
-  // For tests: one frame, then every stage's buffer copied back into `st` (allocates).
+  // For tests: one frame, then every stage's buffer copied back into `st` (allocates; may throw GpuError).
   GpuStatus compute_stages(const ImageView& left, const ImageView& right, SgmBand band, const SgmParams& params,
-                           SgmStages& st);
+                           const DicParams* dic, SgmStages& st);
 
  private:
   struct Impl;
