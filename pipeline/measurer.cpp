@@ -79,15 +79,21 @@ void StereoMeasurer::match(FrameWork& w, MatchContext& context) const {
   w.diag.band_ms = ms_since(t0);
 
   t0 = Clock::now();
+  // Only the measured rows are refined; the margin rows were matched as context for the windows.
+  DicConfig dic = config_.dic_config;
+  dic.row_begin = config_.strip.row0 - geometry_.roi().row0;
+  dic.row_end = dic.row_begin + config_.strip.rows;
+  // The GPU engine refines on its device: disparity_ms then covers both, dic_ms stays 0.
+  if (config_.dic &&
+      context.engine->compute_refined(w.left_strip, w.right_strip, w.diag.band, dic, w.disparity, w.diag.dic)) {
+    w.diag.disparity_ms = ms_since(t0);
+    return;
+  }
   context.engine->compute(w.left_strip, w.right_strip, w.diag.band, w.disparity);
   w.diag.disparity_ms = ms_since(t0);
 
   if (config_.dic) {
     t0 = Clock::now();
-    // Only the measured rows are refined; the margin rows were matched as context for the windows.
-    DicConfig dic = config_.dic_config;
-    dic.row_begin = config_.strip.row0 - geometry_.roi().row0;
-    dic.row_end = dic.row_begin + config_.strip.rows;
     w.diag.dic = refine_disparity_dic(w.left_strip, w.right_strip, w.disparity, dic, context.dic);
     w.diag.dic_ms = ms_since(t0);
   }

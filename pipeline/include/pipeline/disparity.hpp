@@ -9,6 +9,7 @@
 
 #include <opencv2/core.hpp>
 
+#include "pipeline/dic_refine.hpp"
 #include "pipeline/stereo_geometry.hpp"
 
 namespace rutd {
@@ -46,6 +47,13 @@ class DisparityEngine {
   // left min_disparity + num_disparities columns, which have no match in the right strip). Reuses
   // `disparity` when it already fits.
   virtual void compute(const cv::Mat& left, const cv::Mat& right, DisparityBand band, cv::Mat& disparity) = 0;
+  // Engines that also refine on their own device (Gpu): compute(), then the DIC of refine_disparity_dic
+  // with `dic` there, in one call (stats.refined counted, the rest 0). Returns false, doing nothing, when
+  // the engine cannot; the caller then refines on the CPU.
+  virtual bool compute_refined(const cv::Mat& /*left*/, const cv::Mat& /*right*/, DisparityBand /*band*/,
+                               const DicConfig& /*dic*/, cv::Mat& /*disparity*/, DicStats& /*stats*/) {
+    return false;
+  }
 };
 
 // Engine tuning. block_size 0 and every other field -1 mean "the engine's default" (given per field).
