@@ -2,9 +2,11 @@
 // pairs, sizes and parameters chosen to be awkward (odd widths, widths not a multiple of the workgroup,
 // minimum disparity != 0, bands wider than the image). Integer stages must be identical; so must the
 // matcher's float output (a fixed-point value / 64). The DIC stages run in float on both sides: B-spline
-// coefficients within 1e-3 relative, refined disparities within 1/64 px, and at most 0.5% of the pixels
-// refined on one side only (a rejection threshold met within rounding). Exit status: 0 all equal, 1 a difference, 2
-// usage, 77 no usable Vulkan device (CTest's skip code). Needs only the Vulkan loader at run time.
+// coefficients within 1e-3 relative, refined disparities within 1/512 px (the requirement is 1/64 px; a
+// float rounding difference moves a converged pixel by less than the 1e-3 px convergence tolerance), and
+// at most 0.5% of the pixels refined on one side only (a rejection threshold met within rounding). Exit status: 0 all
+// equal, 1 a difference, 2 usage, 77 no usable Vulkan device (CTest's skip code). Needs only the Vulkan loader at run
+// time.
 //   rutd-gpu-check [--device NAME|INDEX] [--seed N] [--cases N]
 #include <cmath>
 #include <cstdio>
@@ -155,7 +157,7 @@ int main(int argc, char** argv) {
       if (a && b) worst = std::max(worst, std::abs(static_cast<double>(ref.refined[i]) - dev.refined[i]));
     }
     const bool dic_ok =
-        spline <= 1e-3 && worst <= 1.0 / 64 && one_side <= 0.005 * static_cast<double>(ref.refined.size());
+        spline <= 1e-3 && worst <= 1.0 / 512 && one_side <= 0.005 * static_cast<double>(ref.refined.size());
     if (!dic_ok) {
       if (ok) std::printf("FAIL\n");
       ok = false;
