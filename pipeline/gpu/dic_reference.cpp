@@ -9,7 +9,8 @@
 namespace rutd::gpu {
 namespace {
 
-constexpr float kZ = -0.26794919243112270f;  // sqrt(3) - 2
+constexpr float kZ = -0.26794919243112270f;   // sqrt(3) - 2
+constexpr float kGain = 1.7320508075688772f;  // sqrt(3)
 
 int mirror(int k, int n) { return k < 0 ? -k : k > n - 1 ? 2 * (n - 1) - k : k; }
 
@@ -24,22 +25,26 @@ std::string check_dic_params(const DicParams& p) {
 }
 
 void bspline_reference(const ImageView& im, std::vector<float>& coef) {
+  // The prefilter's impulse response sqrt(3) z^|j|, 18 taps each side, on the mirrored rows (bspline.comp).
   const int n = im.width;
+  const auto mirrored = [n](int k) {
+    if (n == 1) return 0;
+    const int period = 2 * (n - 1);
+    int m = k % period;
+    if (m < 0) m += period;
+    return m < n ? m : period - m;
+  };
   coef.resize(static_cast<std::size_t>(n) * static_cast<std::size_t>(im.height));
   for (int y = 0; y < im.height; ++y) {
-    float* c = coef.data() + static_cast<std::size_t>(y) * static_cast<std::size_t>(n);
-    for (int k = 0; k < n; ++k) c[k] = 6.0f * static_cast<float>(im.at(k, y));
-    if (n < 2) continue;
-    float sum = c[0], zk = kZ;
-    for (int k = 1; k < std::min(n, 18); ++k) {
-      sum = zk * c[k] + sum;
-      zk *= kZ;
+    for (int x = 0; x < n; ++x) {
+      float w = kGain;
+      float sum = w * static_cast<float>(im.at(x, y));
+      for (int j = 1; j <= 18; ++j) {
+        w = w * kZ;
+        sum = sum + w * (static_cast<float>(im.at(mirrored(x - j), y)) + static_cast<float>(im.at(mirrored(x + j), y)));
+      }
+      coef[static_cast<std::size_t>(y) * static_cast<std::size_t>(n) + static_cast<std::size_t>(x)] = sum;
     }
-    c[0] = sum;
-    float previous = sum;
-    for (int k = 1; k < n; ++k) c[k] = previous = kZ * previous + c[k];
-    c[n - 1] = previous = (kZ / (kZ * kZ - 1.0f)) * (kZ * c[n - 2] + previous);
-    for (int k = n - 2; k >= 0; --k) c[k] = previous = kZ * (previous - c[k]);
   }
 }
 

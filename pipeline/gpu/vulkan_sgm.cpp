@@ -521,7 +521,9 @@ struct VulkanSgm::Impl {
     barrier(cb, transfer, compute);
     stamp(cb, slot, 1);
     dispatch(cb, census, CensusPush{width, height, words_per_row}, groups(width, 16), groups(height, 8), 2);
-    if (dic_params) dispatch(cb, bspline, CensusPush{width, height, words_per_row}, groups(height, 64), 2, 1);
+    if (dic_params)
+      dispatch(cb, bspline, CensusPush{width, height, words_per_row}, groups(width, 64),
+               static_cast<std::uint32_t>(height), 2);
     barrier(cb, compute, compute);
     stamp(cb, slot, 2);
     // The directions add into the sums concurrently (aggregate.comp): zero them first.

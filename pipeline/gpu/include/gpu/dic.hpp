@@ -31,7 +31,9 @@ struct DicParams {
 // Empty when `p` is usable, else what is wrong.
 std::string check_dic_params(const DicParams& p);
 
-// Cubic B-spline coefficients of every row of `image` (Unser's prefilter, mirror boundary), row-major.
+// Cubic B-spline coefficients of every row of `image`, row-major: the interpolation prefilter as its
+// impulse response sqrt(3) z^|j| (z = sqrt(3) - 2) truncated at |j| <= 18, on the row mirrored at its ends
+// (the CPU DIC's recursive filter to float rounding; in parallel on the GPU).
 void bspline_reference(const ImageView& image, std::vector<float>& coefficients);
 
 // Refines `initial` (width x height px, NaN invalid) into `refined` (resized), NaN off the grid and where
