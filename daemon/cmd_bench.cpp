@@ -165,7 +165,7 @@ void add_bench_command(CLI::App& app, int& exit_code) {
       ->check(CLI::Range(1, 100))
       ->capture_default_str();
   cmd->add_option("--engine", o->engine, "Disparity engine")
-      ->check(CLI::IsMember({"bm", "sgbm", "sgbm3way", "hh4", "hh"}))
+      ->check(CLI::IsMember({"bm", "sgbm", "sgbm3way", "hh4", "hh", "gpu", "sgmref"}))
       ->capture_default_str();
   cmd->add_option("--size", o->size, "Image size WIDTHxHEIGHT")->capture_default_str();
   auto no_dic = std::make_shared<bool>(false);

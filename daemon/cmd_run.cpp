@@ -206,7 +206,7 @@ void add_run_command(CLI::App& app, int& exit_code) {
                   "Measure a recording folder at its own pace instead of the configured source");
   cmd->add_option("--size", o->size, "Synthetic camera image size WIDTHxHEIGHT (source.synthetic.size)");
   cmd->add_option("--engine", o->engine, "Disparity engine (measurement.engine)")
-      ->check(CLI::IsMember({"bm", "sgbm", "sgbm3way", "hh4", "hh"}));
+      ->check(CLI::IsMember({"bm", "sgbm", "sgbm3way", "hh4", "hh", "gpu", "sgmref"}));
   cmd->add_flag("--no-dic", o->no_dic, "No sub-pixel refinement (measurement.dic: false)");
   // Hidden (empty group): a test switch, never for a vehicle. The watchdog test stalls a stage with it.
   cmd->add_option("--test-stall-match-after", o->test_stall_match_after,

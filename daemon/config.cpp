@@ -197,11 +197,16 @@ void read_measurement(Section s, MeasurerConfig& m) {
   s.parse("engine",
           [&](const std::string& t) {
             const auto e = parse_engine(t);
-            if (!e) return "expected bm, sgbm, sgbm3way, hh4 or hh, got '" + t + "'";
+            if (!e) return "expected bm, sgbm, sgbm3way, hh4, hh, gpu or sgmref, got '" + t + "'";
             m.engine = *e;
             return std::string();
           })
       .get<bool>("dic", m.dic)
+      .get<std::string>("gpu_device", m.engine_config.gpu_device)
+      .get<int>("sgm_paths", m.engine_config.sgm_paths,
+                [](const int& v) {
+                  return v == 2 || v == 4 || v == 8 ? std::string() : "expected 2, 4 or 8, got " + std::to_string(v);
+                })
       .get<int>("strip_rows", strip_rows, in_range(0, 4096))
       .get<int>("strip_row0", strip_row0, in_range(-1, 65535))
       .get<double>("near_mm", m.range.near_mm, in_range(20.0, 20000.0))

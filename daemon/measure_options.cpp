@@ -3,8 +3,8 @@
 namespace rutd {
 
 void add_measure_options(CLI::App& cmd, MeasureOptions& o) {
-  cmd.add_option("--engine", o.engine, "Disparity engine: bm, sgbm, sgbm3way, hh4, hh")
-      ->check(CLI::IsMember({"bm", "sgbm", "sgbm3way", "hh4", "hh"}))
+  cmd.add_option("--engine", o.engine, "Disparity engine: bm, sgbm, sgbm3way, hh4, hh, gpu, sgmref")
+      ->check(CLI::IsMember({"bm", "sgbm", "sgbm3way", "hh4", "hh", "gpu", "sgmref"}))
       ->capture_default_str();
   cmd.add_flag("--no-dic", o.no_dic,
                "Skip the sub-pixel refinement by digital image correlation (faster, biased toward whole pixels)");

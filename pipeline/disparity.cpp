@@ -2,10 +2,12 @@
 
 #include <algorithm>
 #include <cmath>
+#include <stdexcept>
 #include <vector>
 
 #include <opencv2/imgproc.hpp>
 
+#include "gpu_engine.hpp"
 #include "opencv_engines.hpp"
 
 namespace rutd {
@@ -36,7 +38,8 @@ double percentile(std::vector<float>& values, double q) {
 }  // namespace
 
 std::optional<EngineKind> parse_engine(std::string_view name) {
-  for (EngineKind kind : {EngineKind::Bm, EngineKind::Sgbm, EngineKind::Sgbm3Way, EngineKind::Hh4, EngineKind::Hh}) {
+  for (EngineKind kind : {EngineKind::Bm, EngineKind::Sgbm, EngineKind::Sgbm3Way, EngineKind::Hh4, EngineKind::Hh,
+                          EngineKind::Gpu, EngineKind::SgmRef}) {
     if (name == to_string(kind)) return kind;
   }
   return std::nullopt;
@@ -49,13 +52,22 @@ std::string_view to_string(EngineKind kind) {
     case EngineKind::Sgbm3Way: return "sgbm3way";
     case EngineKind::Hh4: return "hh4";
     case EngineKind::Hh: return "hh";
+    case EngineKind::Gpu: return "gpu";
+    case EngineKind::SgmRef: return "sgmref";
   }
   return "unknown";
 }
 
 std::unique_ptr<DisparityEngine> make_cpu_engine(EngineKind kind, const EngineConfig& params) {
   if (kind == EngineKind::Bm) return std::make_unique<OpenCvBmEngine>(params);
+  if (kind == EngineKind::SgmRef) return std::make_unique<SgmReferenceEngine>(params);
+  if (kind == EngineKind::Gpu) throw std::invalid_argument("disparity engine: gpu is not a CPU engine");
   return std::make_unique<OpenCvSgbmEngine>(kind, params);
+}
+
+std::unique_ptr<DisparityEngine> make_engine(EngineKind kind, const EngineConfig& params) {
+  if (kind == EngineKind::Gpu) return make_gpu_engine(params);
+  return make_cpu_engine(kind, params);
 }
 
 DisparityBand band_for_range(const StereoGeometry& g, WorkingRange range) {

@@ -63,7 +63,7 @@ StereoMeasurer::StereoMeasurer(const StereoCalibration& calibration, const Measu
 
 MatchContext StereoMeasurer::make_match_context() const {
   MatchContext context;
-  context.engine = make_cpu_engine(config_.engine, config_.engine_config);
+  context.engine = make_engine(config_.engine, config_.engine_config);
   return context;
 }
 
@@ -176,6 +176,18 @@ void StereoMeasurer::match_in_band(FrameWork& w, MatchContext& context, bool reu
   dic.column_block_rows = column_block_rows(config_.strip);
 
   auto t0 = Clock::now();
+  w.diag.starts_reused = false;
+  if (config_.dic) {
+    // The GPU engine matches and refines on its device, per pixel: disparity_ms covers both, dic_ms
+    // stays 0, and its starts are never reused (engine_refined stays 0).
+    DicConfig pixels = dic;
+    pixels.column_windows = false;
+    if (context.engine->compute_refined(w.left_strip, w.right_strip, w.diag.band, pixels, w.disparity, w.diag.dic)) {
+      w.diag.disparity_ms = ms_since(t0);
+      w.diag.dic_ms = 0;
+      return;
+    }
+  }
   w.diag.starts_reused = reuse;
   if (reuse) {
     fill_starts(context.previous, w.disparity);

@@ -31,7 +31,9 @@ int sgbm_mode(EngineKind kind) {
     case EngineKind::Sgbm3Way: return cv::StereoSGBM::MODE_SGBM_3WAY;
     case EngineKind::Hh4: return cv::StereoSGBM::MODE_HH4;
     case EngineKind::Hh: return cv::StereoSGBM::MODE_HH;
-    case EngineKind::Bm: break;
+    case EngineKind::Bm:
+    case EngineKind::Gpu:
+    case EngineKind::SgmRef: break;
   }
   throw std::invalid_argument("OpenCvSgbmEngine: not an SGBM mode");
 }

@@ -32,10 +32,8 @@ struct Case {
 
 std::ostream& operator<<(std::ostream& os, const Case& c) { return os << c.name; }
 
-class EndToEnd : public ::testing::TestWithParam<Case> {};
-
-TEST_P(EndToEnd, DepthWithinOneMillimetreOfTruth) {
-  const Case& c = GetParam();
+// engine: "" for the configured default, else a --engine name.
+void expect_depth_within_one_millimetre(const Case& c, const std::string& engine) {
   const test::TempDir tmp;
   const std::string rec = (tmp.path() / "rec").string();
   std::ostringstream synth;
@@ -44,7 +42,7 @@ TEST_P(EndToEnd, DepthWithinOneMillimetreOfTruth) {
         << c.height_mm << " --seed " << c.seed;
   ASSERT_EQ(test::run_rutd(synth.str()), 0);
   const std::string csv = (tmp.path() / "m.csv").string();
-  ASSERT_EQ(test::run_rutd("replay " + rec + " --out " + csv), 0);
+  ASSERT_EQ(test::run_rutd("replay " + rec + " --out " + csv + (engine.empty() ? "" : " --engine " + engine)), 0);
 
   const auto truth = read_truth_csv(rec + "/truth.csv");
   const auto rows = read_measurement_csv(csv).rows;
@@ -57,6 +55,13 @@ TEST_P(EndToEnd, DepthWithinOneMillimetreOfTruth) {
     EXPECT_LE(std::abs(err), 1.0) << c.name << " frame " << i;
   }
 }
+
+class EndToEnd : public ::testing::TestWithParam<Case> {};
+TEST_P(EndToEnd, DepthWithinOneMillimetreOfTruth) { expect_depth_within_one_millimetre(GetParam(), ""); }
+
+// The Vulkan engine (lavapipe in CI; its CPU reference where no Vulkan device exists) with the DIC.
+class EndToEndGpu : public ::testing::TestWithParam<Case> {};
+TEST_P(EndToEndGpu, DepthWithinOneMillimetreOfTruth) { expect_depth_within_one_millimetre(GetParam(), "gpu"); }
 
 // Each depth of the seed's Table 3 at both resolutions, both textures, both rolls and the rig extremes,
 // plus mud and grass; a different random texture and noise per case.
@@ -78,6 +83,16 @@ const Case kCases[] = {
 };
 
 INSTANTIATE_TEST_SUITE_P(Matrix, EndToEnd, ::testing::ValuesIn(kCases),
+                         [](const auto& info) { return std::string(info.param.name); });
+
+// The 30-60 mm ruts of the seed's Table 3 at 640x480, both textures and rolls.
+const Case kGpuCases[] = {
+    {"d30_640_sand_r0_b40h400", 30, "640x480", "sand", 0, 40, 400, 2, 21},
+    {"d40_640_snow_r3_b80h300", 40, "640x480", "snow", 3, 80, 300, 2, 22},
+    {"d50_640_sand_r3_b60h350", 50, "640x480", "sand", 3, 60, 350, 2, 23},
+    {"d60_640_snow_r0_b60h350", 60, "640x480", "snow", 0, 60, 350, 2, 24},
+};
+INSTANTIATE_TEST_SUITE_P(Matrix, EndToEndGpu, ::testing::ValuesIn(kGpuCases),
                          [](const auto& info) { return std::string(info.param.name); });
 
 }  // namespace

@@ -138,5 +138,30 @@ TEST(Middlebury, EnginesAndDicAgainstGroundTruth) {
   }
 }
 
+// The census-SGM engines (8 paths, defaults): bad-1.0 no worse than OpenCV SGBM's bound on each data set,
+// and the GPU engine (lavapipe in CI; the reference when no Vulkan device exists) gives exactly the
+// reference's disparities through the cv::Mat adapter.
+const std::map<std::string, double> kSgmMinCoverage = {{"cone", 0}, {"Cloth3", 0}, {"Reindeer", 0}, {"Wood2", 0}};
+
+TEST(Middlebury, CensusSgmNoWorseThanSgbm) {
+  std::printf("engine    data set   bad-1.0  coverage   bad-0.5\n");
+  for (const Dataset& d : kDatasets) {
+    const Loaded l = load(d);
+    ASSERT_FALSE(l.left.empty() || l.right.empty() || l.truth.empty()) << d.name;
+    cv::Mat reference, gpu;
+    make_cpu_engine(EngineKind::SgmRef)->compute(l.left, l.right, l.band, reference);
+    const auto engine = make_engine(EngineKind::Gpu);
+    engine->compute(l.left, l.right, l.band, gpu);
+    if (engine->kind() != EngineKind::Gpu) std::printf("(no usable Vulkan device: the GPU engine ran as sgmref)\n");
+    const Score s = score(reference, l.truth);
+    std::printf("%-9s %-9s %8.2f %9.2f %9.2f\n", "sgmref", d.name.c_str(), s.bad1, s.coverage, s.bad05);
+    EXPECT_LE(s.bad1, kBounds.at("sgbm/" + d.name).max_bad1) << d.name;
+    EXPECT_GE(s.coverage, kSgmMinCoverage.at(d.name)) << d.name;
+    const cv::Mat differ = (reference != gpu) & (reference == reference);  // NaN != NaN: compare finite values
+    EXPECT_EQ(cv::countNonZero(differ), 0) << d.name;
+    EXPECT_EQ(cv::countNonZero(reference == reference), cv::countNonZero(gpu == gpu)) << d.name;
+  }
+}
+
 }  // namespace
 }  // namespace rutd

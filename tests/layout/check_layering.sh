@@ -30,7 +30,7 @@ check_folder() {  # folder allowed-prefixes...
 }
 check_folder rut rut
 check_folder core core rut
-check_folder pipeline pipeline core rut
+check_folder pipeline pipeline gpu core rut  # gpu: the Vulkan matcher, pipeline/gpu/
 check_folder drivers/can can core rut pipeline          # pipeline: can_sink.* only, checked below
 check_folder drivers/camera camera core rut
 check_folder drivers/recording recording core rut pipeline  # pipeline: measurement_csv_sink.hpp only

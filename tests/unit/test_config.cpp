@@ -100,6 +100,15 @@ TEST(Config, ValuesAreRead) {
   EXPECT_EQ(c.pipeline.threads[2].cpu, -1);
 }
 
+TEST(Config, GpuEngineAndDeviceAreRead) {
+  const RutdConfig c =
+      parse_config("measurement:\n  engine: gpu\n  gpu_device: \"NVIDIA\"\n  sgm_paths: 4\n", "test.yaml");
+  EXPECT_EQ(c.measurement.engine, EngineKind::Gpu);
+  EXPECT_EQ(c.measurement.engine_config.gpu_device, "NVIDIA");
+  EXPECT_EQ(c.measurement.engine_config.sgm_paths, 4);
+  expect_error("measurement:\n  sgm_paths: 3\n", {"line 2", "measurement.sgm_paths", "2, 4 or 8"});
+}
+
 TEST(Config, UnknownKeyIsNamedWithItsLine) {
   expect_error("measurement:\n  engine: sgbm\n  engnie: hh\n",
                {"test.yaml", "line 3", "measurement.engnie", "unknown key"});

@@ -3,20 +3,24 @@
 // the CPU factory, and the choice of the search band from the working range of distances.
 #include <memory>
 #include <optional>
+#include <string>
 #include <string_view>
 #include <vector>
 
 #include <opencv2/core.hpp>
 
+#include "pipeline/dic_refine.hpp"
 #include "pipeline/stereo_geometry.hpp"
 
 namespace rutd {
 
 // Bm: OpenCV StereoBM. Sgbm/Sgbm3Way/Hh4/Hh: OpenCV StereoSGBM in its MODE_SGBM (5 paths),
 // MODE_SGBM_3WAY, MODE_HH4 (4 paths) and MODE_HH (8 paths, full-image memory) modes.
-enum class EngineKind { Bm, Sgbm, Sgbm3Way, Hh4, Hh };
+// Gpu: census semi-global matching in Vulkan compute (pipeline/gpu/); SgmRef: its plain C++ reference on
+// the CPU, the same arithmetic and the same disparities (and the GPU engine's fallback).
+enum class EngineKind { Bm, Sgbm, Sgbm3Way, Hh4, Hh, Gpu, SgmRef };
 
-// "bm", "sgbm", "sgbm3way", "hh4", "hh"; nullopt for anything else.
+// "bm", "sgbm", "sgbm3way", "hh4", "hh", "gpu", "sgmref"; nullopt for anything else.
 std::optional<EngineKind> parse_engine(std::string_view name);
 std::string_view to_string(EngineKind kind);
 
@@ -43,6 +47,13 @@ class DisparityEngine {
   // left min_disparity + num_disparities columns, which have no match in the right strip). Reuses
   // `disparity` when it already fits.
   virtual void compute(const cv::Mat& left, const cv::Mat& right, DisparityBand band, cv::Mat& disparity) = 0;
+  // Engines that also refine on their own device (Gpu): compute(), then the DIC of refine_disparity_dic
+  // with `dic` there, in one call (stats.refined counted, the rest 0). Returns false, doing nothing, when
+  // the engine cannot; the caller then refines on the CPU.
+  virtual bool compute_refined(const cv::Mat& /*left*/, const cv::Mat& /*right*/, DisparityBand /*band*/,
+                               const DicConfig& /*dic*/, cv::Mat& /*disparity*/, DicStats& /*stats*/) {
+    return false;
+  }
 };
 
 // Engine tuning. block_size 0 and every other field -1 mean "the engine's default" (given per field).
@@ -56,10 +67,20 @@ struct EngineConfig {
   int texture_threshold = -1;  // Bm only: minimum texture in the block. Default 10
   int p1 = -1;                 // SGBM smoothness penalty for +-1 px steps. Default 8 * block_size^2
   int p2 = -1;                 // SGBM smoothness penalty for larger steps. Default 32 * block_size^2
+  // Gpu/SgmRef: block_size, speckle and pre-filter fields do not apply (9x7 census); p1/p2 are in census
+  // bits (default 10/120), uniqueness_ratio defaults to 10, disp12_max_diff as above.
+  int sgm_paths = 8;       // Gpu/SgmRef: 2, 4 or 8 aggregation paths
+  std::string gpu_device;  // Gpu: "" the first GPU; a number: that Vulkan device index; else a name part
 };
 
-// Throws std::invalid_argument for parameters OpenCV would refuse (even block size, p2 <= p1, ...).
+// Throws std::invalid_argument for parameters OpenCV would refuse (even block size, p2 <= p1, ...), and for
+// EngineKind::Gpu (not a CPU engine).
 std::unique_ptr<DisparityEngine> make_cpu_engine(EngineKind kind, const EngineConfig& params = {});
+
+// Any engine. Gpu: when the build has no Vulkan engine or no usable Vulkan device exists (or the device
+// fails later), the engine logs the reason once on stderr and computes with the SgmRef engine instead
+// (same disparities, slower). Throws std::invalid_argument for bad parameters.
+std::unique_ptr<DisparityEngine> make_engine(EngineKind kind, const EngineConfig& params = {});
 
 // The band that covers every disparity of `range` (far end rounded down, near end up), min_disparity
 // >= 0. Can be wide (hundreds of px) for a wide range; see estimate_band.

@@ -1,0 +1,44 @@
+#pragma once
+// Sub-pixel refinement by digital image correlation as the Vulkan matcher runs it (shaders/bspline.comp,
+// shaders/dic.comp), and its plain C++ reference: the DIC of pipeline/dic_refine.hpp (inverse-
+// compositional Gauss-Newton on the ZNSSD, first-order warp, cubic B-spline along rows, the same
+// rejections), in float, one pixel independent of the next (no warm start), in the order the shader
+// computes. The GPU's float division and square root may differ from the CPU's by an ulp or two, so the
+// two agree to far better than 1/64 px, not bit for bit. No OpenCV.
+#include <vector>
+
+#include "gpu/sgm.hpp"
+
+namespace rutd::gpu {
+
+// The fields of rutd::DicConfig the refinement uses, resolved (half_height and row_step given, row_end
+// a row index).
+struct DicParams {
+  int half_window = 5;  // px, the window is 2 h + 1 columns wide, clipped to the image
+  int half_height = 5;  // px, 2 hh + 1 rows
+  int max_iterations = 20;
+  float tolerance_px = 1e-3f;            // converged when the update moves the window's corners less
+  int step = 1, row_step = 1;            // refine pixels with x % step == 0 and y % row_step == 0
+  int row_begin = 0, row_end = 1 << 30;  // rows [row_begin, row_end)
+  bool first_order = true;
+  float max_shift_px = 2.0f;  // reject when |refined - initial| exceeds this
+  float max_gradient = 0.5f;  // reject when |ux| or |uy| exceed this
+  float min_gradient = 1.0f;  // reject windows with a lower RMS horizontal gradient, grey/px
+  float min_zncc = 0.8f;      // reject a lower final correlation
+  float max_sigma_px = 0.0f;  // reject a larger Gauss-Newton standard deviation; <= 0: off
+};
+
+// Empty when `p` is usable, else what is wrong.
+std::string check_dic_params(const DicParams& p);
+
+// Cubic B-spline coefficients of every row of `image`, row-major: the interpolation prefilter as its
+// impulse response sqrt(3) z^|j| (z = sqrt(3) - 2) truncated at |j| <= 18, on the row mirrored at its ends
+// (the CPU DIC's recursive filter to float rounding; in parallel on the GPU).
+void bspline_reference(const ImageView& image, std::vector<float>& coefficients);
+
+// Refines `initial` (width x height px, NaN invalid) into `refined` (resized), NaN off the grid and where
+// rejected. coef_left/coef_right: bspline_reference of the images.
+void dic_reference(const ImageView& left, const std::vector<float>& coef_left, const std::vector<float>& coef_right,
+                   const std::vector<float>& initial, const DicParams& p, std::vector<float>& refined);
+
+}  // namespace rutd::gpu

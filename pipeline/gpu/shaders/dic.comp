@@ -1,0 +1,147 @@
+#version 450
+// Sub-pixel refinement by digital image correlation, one invocation per pixel of the grid (x % step == 0,
+// y % row_step == 0, rows [row_begin, row_end)) with a valid disparity d0: inverse-compositional
+// Gauss-Newton on the zero-normalised SSD over the first-order warp x_right = x + c + a xi + b eta
+// (start a = 1, b = 0, c = -d0), the right image sampled by its cubic B-spline along rows. The maths and
+// the rejections are pipeline/dic_refine.hpp's (DicConfig), in float, in the order of dic_reference.cpp;
+// no warm start from the neighbour (pixels are independent here). Other pixels become NaN.
+layout(local_size_x = 64) in;
+layout(std430, binding = 0) readonly buffer Left { uint left_px[]; };
+layout(std430, binding = 1) readonly buffer CoefL { float coef_l[]; };
+layout(std430, binding = 2) readonly buffer CoefR { float coef_r[]; };
+layout(std430, binding = 3) readonly buffer Initial { float initial[]; };
+layout(std430, binding = 4) writeonly buffer Refined { float refined[]; };
+layout(push_constant) uniform Params {
+  int width, height, words_per_row, h, hh, max_iterations, step, row_step, row_begin, row_end, first_order;
+  float tolerance, max_shift, max_gradient, min_gradient, min_zncc, max_sigma;
+} pc;
+#include "common.glsl"
+
+int mirror(int k) { return k < 0 ? -k : k > pc.width - 1 ? 2 * (pc.width - 1) - k : k; }
+
+// The right spline at position X of row r, minus 128 (power form on [k, k+1), as the CPU tables).
+float sample_right(int r, float X) {
+  const int k = min(int(floor(X)), pc.width - 1);
+  precise const float t = X - float(k);
+  const int row = r * pc.width;
+  const float cm = coef_r[row + mirror(k - 1)], c0 = coef_r[row + k], c1 = coef_r[row + mirror(k + 1)],
+              c2 = coef_r[row + mirror(k + 2)];
+  precise const float p0 = (cm + (4.0 * c0 + c1)) * (1.0 / 6.0) - 128.0;
+  precise const float p1 = 0.5 * (c1 - cm);
+  precise const float p2 = 0.5 * (cm - 2.0 * c0 + c1);
+  precise const float p3 = (3.0 * (c0 - c1) + (c2 - cm)) * (1.0 / 6.0);
+  precise const float g = p0 + t * (p1 + t * (p2 + t * p3));
+  return g;
+}
+
+void main() {
+  const int x = int(gl_GlobalInvocationID.x), y = int(gl_GlobalInvocationID.y);
+  if (x >= pc.width || y >= pc.height) return;
+  const int i = y * pc.width + x;
+  const float nan = uintBitsToFloat(0x7FC00000u);
+  const float d0 = initial[i];
+  refined[i] = nan;
+  if (y < pc.row_begin || y >= pc.row_end || x % pc.step != 0 || y % pc.row_step != 0 || isnan(d0) || pc.width < 4)
+    return;
+  const int x0 = max(0, x - pc.h), x1 = min(pc.width - 1, x + pc.h);
+  const int y0 = max(0, y - pc.hh), y1 = min(pc.height - 1, y + pc.hh);
+  const float n = float((x1 - x0 + 1) * (y1 - y0 + 1));
+
+  // Reference side: f = left - 128, fx its spline's derivative, sd = fx (1, xi, eta).
+  precise float f_sum = 0.0, ff = 0.0;
+  precise float hm[6] = float[6](0.0, 0.0, 0.0, 0.0, 0.0, 0.0);  // H00 H01 H02 H11 H12 H22
+  precise float sd_sum[3] = float[3](0.0, 0.0, 0.0), sd_fs[3] = float[3](0.0, 0.0, 0.0);
+  for (int r = y0; r <= y1; ++r) {
+    const float eta = float(r - y);
+    for (int cx = x0; cx <= x1; ++cx) {
+      const float xi = float(cx - x);
+      const float f = float(pixel_at(left_px[r * pc.words_per_row + (cx >> 2)], cx)) - 128.0;
+      precise const float fx = 0.5 * (coef_l[r * pc.width + mirror(cx + 1)] - coef_l[r * pc.width + mirror(cx - 1)]);
+      f_sum += f;
+      ff += f * f;
+      precise const float w = fx * fx;
+      hm[0] += w; hm[1] += w * xi; hm[2] += w * eta; hm[3] += w * xi * xi; hm[4] += w * xi * eta; hm[5] += w * eta * eta;
+      sd_sum[0] += fx; sd_sum[1] += fx * xi; sd_sum[2] += fx * eta;
+      sd_fs[0] += fx * f; sd_fs[1] += fx * f * xi; sd_fs[2] += fx * f * eta;
+    }
+  }
+  precise const float f_mean = f_sum / n;
+  precise const float f2 = ff - f_sum * f_mean;
+  if (hm[0] < pc.min_gradient * pc.min_gradient * n || !(f2 > 0.0)) return;
+  const float norm = sqrt(f2);
+  precise float sd_f[3];
+  for (int k = 0; k < 3; ++k) sd_f[k] = sd_fs[k] - f_mean * sd_sum[k];
+  precise float inv[6];  // symmetric inverse, same order as hm
+  if (pc.first_order != 0) {
+    precise const float c00 = hm[3] * hm[5] - hm[4] * hm[4];
+    precise const float c01 = hm[4] * hm[2] - hm[1] * hm[5];
+    precise const float c02 = hm[1] * hm[4] - hm[3] * hm[2];
+    precise const float det = hm[0] * c00 + hm[1] * c01 + hm[2] * c02;
+    if (!(det > 1e-12 * hm[0] * hm[3] * hm[5])) return;
+    const float s = 1.0 / det;
+    inv[0] = c00 * s; inv[1] = c01 * s; inv[2] = c02 * s;
+    inv[3] = (hm[0] * hm[5] - hm[2] * hm[2]) * s;
+    inv[4] = (hm[2] * hm[1] - hm[0] * hm[4]) * s;
+    inv[5] = (hm[0] * hm[3] - hm[1] * hm[1]) * s;
+  } else {
+    inv[0] = 1.0 / hm[0]; inv[1] = 0.0; inv[2] = 0.0; inv[3] = 0.0; inv[4] = 0.0; inv[5] = 0.0;
+  }
+
+  precise float a = 1.0, b = 0.0, c = -d0;
+  const float last = float(pc.width - 1);
+  for (int it = 1; it <= pc.max_iterations; ++it) {
+    // a > 0 and b bounded: the extreme samples are at the window's corners.
+    for (int corner = 0; corner < 4; ++corner) {
+      precise const float X = float(x) + c + a * float((corner & 1) == 0 ? x0 - x : x1 - x) +
+                              b * float((corner & 2) == 0 ? y0 - y : y1 - y);
+      if (!(X >= 0.0 && X <= last)) return;
+    }
+    precise float g_sum = 0.0, gg = 0.0, fg = 0.0;
+    precise float sd_g[3] = float[3](0.0, 0.0, 0.0);
+    for (int r = y0; r <= y1; ++r) {
+      const float eta = float(r - y);
+      for (int cx = x0; cx <= x1; ++cx) {
+        const float xi = float(cx - x);
+        precise const float X = float(x) + c + a * xi + b * eta;
+        const float g = sample_right(r, X);
+        const float f = float(pixel_at(left_px[r * pc.words_per_row + (cx >> 2)], cx)) - 128.0;
+        precise const float fx = 0.5 * (coef_l[r * pc.width + mirror(cx + 1)] - coef_l[r * pc.width + mirror(cx - 1)]);
+        g_sum += g;
+        gg += g * g;
+        fg += f * g;
+        sd_g[0] += fx * g; sd_g[1] += fx * g * xi; sd_g[2] += fx * g * eta;
+      }
+    }
+    precise const float g_mean = g_sum / n;
+    precise const float g2 = gg - g_sum * g_mean;
+    if (!(g2 > 1e-6)) return;
+    precise const float fgc = fg - f_sum * g_mean;
+    const float inv_g_norm = 1.0 / sqrt(g2);
+    precise const float kk = norm * inv_g_norm;
+    precise float bv[3];
+    for (int k = 0; k < 3; ++k) bv[k] = sd_f[k] - kk * (sd_g[k] - g_mean * sd_sum[k]);
+    precise const float zncc = fgc * inv_g_norm / norm;
+    precise const float du = -(inv[0] * bv[0] + inv[1] * bv[1] + inv[2] * bv[2]);
+    precise const float dux = -(inv[1] * bv[0] + inv[3] * bv[1] + inv[4] * bv[2]);
+    precise const float duy = -(inv[2] * bv[0] + inv[4] * bv[1] + inv[5] * bv[2]);
+    // W <- W o W(dp)^-1 ; W(dp)^-1: xi' = (xi - duy eta - du) / (1 + dux).
+    const float ai = 1.0 / (1.0 + dux);
+    precise const float na = a * ai, nb = b - a * duy * ai, nc = c - a * du * ai;
+    a = na; b = nb; c = nc;
+    if (isnan(c) || isinf(c) || abs(a - 1.0) > pc.max_gradient || abs(b) > pc.max_gradient ||
+        abs(-c - d0) > pc.max_shift)
+      return;
+    precise const float corner2 = du * du + float(pc.h * pc.h) * dux * dux + float(pc.hh * pc.hh) * duy * duy;
+    if (pc.tolerance > 0.0 && corner2 < pc.tolerance * pc.tolerance) {
+      if (pc.max_sigma > 0.0) {
+        const float unknowns = pc.first_order != 0 ? 3.0 : 1.0;
+        if (n <= unknowns) return;
+        const float r2 = max(0.0, 2.0 * f2 * (1.0 - zncc));
+        const float variance = r2 / (n - unknowns) * inv[0];
+        if (!(variance <= pc.max_sigma * pc.max_sigma)) return;
+      }
+      if (zncc >= pc.min_zncc) refined[i] = -c;
+      return;
+    }
+  }
+}

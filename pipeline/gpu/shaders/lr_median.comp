@@ -1,0 +1,43 @@
+#version 450
+// Left-right check, then a 3x3 median, then pixels to float. A left disparity v (1/64 px) survives the
+// check when the right view's disparity at x - round(v) is within max_diff px of round(v), round(v) =
+// (v + 32) >> 6 (max_diff < 0: no check). The median is taken over the nine checked values with
+// invalid = -1 (so invalid neighbours pull toward invalid); pixels on the image border keep their own.
+// Output: px as float, NaN invalid.
+layout(local_size_x = 64) in;
+layout(std430, binding = 0) readonly buffer DispL { int disp_l[]; };
+layout(std430, binding = 1) readonly buffer DispR { int disp_r[]; };
+layout(std430, binding = 2) writeonly buffer Out { float disparity[]; };
+layout(push_constant) uniform Params { int width, height, max_diff, median; } pc;
+
+int checked(int x, int y) {
+  const int v = disp_l[y * pc.width + x];
+  if (v < 0 || pc.max_diff < 0) return v;
+  const int d = (v + 32) >> 6;
+  const int xr = x - d;
+  if (xr < 0) return -1;
+  const int r = disp_r[y * pc.width + xr];
+  return r >= 0 && abs(r - d) <= pc.max_diff ? v : -1;
+}
+
+void main() {
+  const int x = int(gl_GlobalInvocationID.x), y = int(gl_GlobalInvocationID.y);
+  if (x >= pc.width || y >= pc.height) return;
+  int m;
+  if (pc.median == 0 || x == 0 || y == 0 || x == pc.width - 1 || y == pc.height - 1) {
+    m = checked(x, y);
+  } else {
+    int v[9];
+    int n = 0;
+    for (int dy = -1; dy <= 1; ++dy)
+      for (int dx = -1; dx <= 1; ++dx) v[n++] = checked(x + dx, y + dy);
+    for (int i = 1; i < 9; ++i) {  // insertion sort: the median of nine, exactly as the reference
+      const int k = v[i];
+      int j = i - 1;
+      while (j >= 0 && v[j] > k) { v[j + 1] = v[j]; --j; }
+      v[j + 1] = k;
+    }
+    m = v[4];
+  }
+  disparity[y * pc.width + x] = m < 0 ? uintBitsToFloat(0x7FC00000u) : float(m) / 64.0;
+}

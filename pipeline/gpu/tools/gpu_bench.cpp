@@ -1,0 +1,169 @@
+// rutd-gpu-bench: speed of the Vulkan matcher. Per image size (640x480, 1280x1024, a 640x48 strip),
+// paths (2/4/8) and disparities (64/128): the median over --runs frames after --warmup frames of the
+// device time of each stage (GPU timestamps) and of one synchronous frame end to end on the host clock
+// (pack and upload both images, all stages, download the float disparity), and the throughput with two
+// frames in flight (the next pair's upload overlapping the current pair's work). Images are generated
+// (tools/synthetic_pair.hpp) or read from 8-bit binary PGM files (--left/--right, one size then).
+// Needs only the Vulkan loader at run time.
+//   rutd-gpu-bench [--device NAME|INDEX] [--runs N] [--warmup N] [--sizes 640x480,1280x1024,640x48]
+//                  [--paths 2,4,8] [--disparities 64,128] [--left L.pgm --right R.pgm] [--no-dic]
+// With DIC (the default; 11x11 window, every pixel of every second row, as rutd's default DicConfig) the
+// B-spline prefilter runs with the census and counts there.
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <fstream>
+#include <memory>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "gpu/vulkan_sgm.hpp"
+#include "synthetic_pair.hpp"
+
+namespace {
+
+using namespace rutd::gpu;
+using Clock = std::chrono::steady_clock;
+
+std::vector<std::string> split(const std::string& s) {
+  std::vector<std::string> out;
+  std::stringstream ss(s);
+  for (std::string item; std::getline(ss, item, ',');) out.push_back(item);
+  return out;
+}
+
+// Binary 8-bit PGM (P5, maxval <= 255); empty on anything else.
+bool read_pgm(const std::string& path, int& w, int& h, std::vector<std::uint8_t>& px) {
+  std::ifstream f(path, std::ios::binary);
+  std::string magic;
+  int maxval = 0;
+  f >> magic;
+  const auto skip = [&] {
+    while (f >> std::ws && f.peek() == '#') f.ignore(1 << 20, '\n');
+  };
+  skip();
+  f >> w;
+  skip();
+  f >> h;
+  skip();
+  f >> maxval;
+  f.get();
+  if (!f || magic != "P5" || maxval > 255 || w < 1 || h < 1) return false;
+  px.resize(static_cast<std::size_t>(w) * static_cast<std::size_t>(h));
+  f.read(reinterpret_cast<char*>(px.data()), static_cast<std::streamsize>(px.size()));
+  return static_cast<bool>(f);
+}
+
+double median(std::vector<double> v) {
+  if (v.empty()) return 0;
+  std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
+  return v[v.size() / 2];
+}
+
+double ms_since(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  std::string device, sizes = "640x480,1280x1024,640x48", paths = "2,4,8", disparities = "64,128", left_pgm, right_pgm;
+  int runs = 200, warmup = 20;
+  bool use_dic = true;
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    const bool more = i + 1 < argc;
+    if (a == "--device" && more) device = argv[++i];
+    else if (a == "--runs" && more) runs = std::max(1, std::atoi(argv[++i]));
+    else if (a == "--warmup" && more) warmup = std::max(0, std::atoi(argv[++i]));
+    else if (a == "--sizes" && more) sizes = argv[++i];
+    else if (a == "--paths" && more) paths = argv[++i];
+    else if (a == "--disparities" && more) disparities = argv[++i];
+    else if (a == "--left" && more) left_pgm = argv[++i];
+    else if (a == "--right" && more) right_pgm = argv[++i];
+    else if (a == "--no-dic") use_dic = false;
+    else {
+      std::fprintf(stderr, "usage: see the comment at the top of gpu_bench.cpp\n");
+      return 2;
+    }
+  }
+  tools::Pair file_pair;
+  if (!left_pgm.empty() || !right_pgm.empty()) {
+    int rw = 0, rh = 0;
+    if (!read_pgm(left_pgm, file_pair.width, file_pair.height, file_pair.left) ||
+        !read_pgm(right_pgm, rw, rh, file_pair.right) || rw != file_pair.width || rh != file_pair.height) {
+      std::fprintf(stderr, "cannot read two 8-bit binary PGM images of one size from --left/--right\n");
+      return 2;
+    }
+    sizes = std::to_string(file_pair.width) + "x" + std::to_string(file_pair.height);
+  }
+
+  bool header = false;
+  for (const std::string& size : split(sizes)) {
+    const int w = std::atoi(size.c_str()), h = std::atoi(size.substr(size.find('x') + 1).c_str());
+    for (const std::string& ds : split(disparities)) {
+      const int nd = std::atoi(ds.c_str());
+      std::unique_ptr<VulkanSgm> sgm;
+      try {
+        sgm = std::make_unique<VulkanSgm>(device, w, h, nd);
+      } catch (const GpuError& e) {
+        std::fprintf(stderr, "%s\n", e.what());
+        return 1;
+      }
+      if (!header) {
+        std::printf("device %d: %s (%s, subgroup %u); median of %d runs after %d warm-up, ms\n", sgm->device().index,
+                    sgm->device().name.c_str(), sgm->device().type.c_str(), sgm->device().subgroup_size, runs, warmup);
+        std::printf("%-10s %5s %5s | %7s %7s %9s %7s %7s %7s %8s | %9s %8s | %9s\n", "size", "disp", "paths", "upload",
+                    "census", "aggregate", "wta", "lr+med", "dic", "download", "end2end", "Hz", "2-flight");
+        header = true;
+      }
+      const SgmBand band{0, nd};
+      const tools::Pair pair = file_pair.width ? file_pair : tools::synthetic_pair(w, h, band.min_disparity, nd, 7);
+      const ImageView l{pair.left.data(), w, h, static_cast<std::size_t>(w)};
+      const ImageView r{pair.right.data(), w, h, static_cast<std::size_t>(w)};
+      std::vector<float> out(static_cast<std::size_t>(w) * static_cast<std::size_t>(h));
+      for (const std::string& ps : split(paths)) {
+        SgmParams params;
+        params.paths = std::atoi(ps.c_str());
+        std::vector<double> up, census, agg, wta, lrm, dict, down, total;
+        DicParams dic;
+        dic.row_step = 2;
+        const DicParams* dic_ptr = use_dic ? &dic : nullptr;
+        for (int i = 0; i < warmup + runs; ++i) {
+          GpuStageTimes t;
+          const auto t0 = Clock::now();
+          const GpuStatus s = sgm->compute(l, r, band, params, dic_ptr, out.data(), static_cast<std::size_t>(w), &t);
+          const double ms = ms_since(t0);
+          if (s != GpuStatus::Ok) {
+            std::fprintf(stderr, "frame failed: %s\n", std::string(to_string(s)).c_str());
+            return 1;
+          }
+          if (i < warmup) continue;
+          up.push_back(t.upload_ms);
+          census.push_back(t.census_ms);
+          agg.push_back(t.aggregate_ms);
+          wta.push_back(t.wta_ms);
+          lrm.push_back(t.lr_median_ms);
+          dict.push_back(t.dic_ms);
+          down.push_back(t.download_ms);
+          total.push_back(ms);
+        }
+        // Two in flight: submit frame i+1, then collect frame i.
+        int tickets[2] = {0, 0};
+        const auto t0 = Clock::now();
+        bool ok = sgm->submit(l, r, band, params, dic_ptr, tickets[0]) == GpuStatus::Ok;
+        for (int i = 1; ok && i <= runs; ++i) {
+          if (i < runs) ok = sgm->submit(l, r, band, params, dic_ptr, tickets[i % 2]) == GpuStatus::Ok;
+          ok = ok && sgm->collect(tickets[(i - 1) % 2], out.data(), static_cast<std::size_t>(w)) == GpuStatus::Ok;
+        }
+        const double flight_hz = ok ? 1000.0 * runs / ms_since(t0) : 0.0;
+        const double e2e = median(total);
+        std::printf("%-10s %5d %5d | %7.3f %7.3f %9.3f %7.3f %7.3f %7.3f %8.3f | %9.3f %8.0f | %9.0f\n", size.c_str(),
+                    nd, params.paths, median(up), median(census), median(agg), median(wta), median(lrm), median(dict),
+                    median(down), e2e, 1000.0 / e2e, flight_hz);
+        std::fflush(stdout);
+      }
+    }
+  }
+  return 0;
+}

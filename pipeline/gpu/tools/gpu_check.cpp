@@ -1,0 +1,174 @@
+// rutd-gpu-check: every stage of the Vulkan matcher against the C++ reference (sgm.hpp) on randomised
+// pairs, sizes and parameters chosen to be awkward (odd widths, widths not a multiple of the workgroup,
+// minimum disparity != 0, bands wider than the image). Integer stages must be identical; so must the
+// matcher's float output (a fixed-point value / 64). The DIC stages run in float on both sides: B-spline
+// coefficients within 1e-3 relative, refined disparities within 1/512 px (the requirement is 1/64 px; a
+// float rounding difference moves a converged pixel by less than the 1e-3 px convergence tolerance), and
+// at most 0.5% of the pixels refined on one side only (a rejection threshold met within rounding). Exit status: 0 all
+// equal, 1 a difference, 2 usage, 77 no usable Vulkan device (CTest's skip code). Needs only the Vulkan loader at run
+// time.
+//   rutd-gpu-check [--device NAME|INDEX] [--seed N] [--cases N]
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <memory>
+#include <random>
+#include <string>
+
+#include "gpu/dic.hpp"
+#include "gpu/vulkan_sgm.hpp"
+#include "synthetic_pair.hpp"
+
+namespace {
+
+using namespace rutd::gpu;
+
+// First differing index of two equally long arrays, or -1.
+template <class T>
+long first_difference(const std::vector<T>& a, const std::vector<T>& b) {
+  if (a.size() != b.size()) return 0;
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    if constexpr (std::is_floating_point_v<T>) {
+      if (std::isnan(a[i]) != std::isnan(b[i]) || (!std::isnan(a[i]) && a[i] != b[i])) return static_cast<long>(i);
+    } else if (a[i] != b[i]) {
+      return static_cast<long>(i);
+    }
+  }
+  return -1;
+}
+
+// Largest |a - b| / max(1, |b|).
+double max_relative(const std::vector<float>& a, const std::vector<float>& b) {
+  double worst = a.size() == b.size() ? 0.0 : 1e30;
+  for (std::size_t i = 0; i < a.size() && i < b.size(); ++i)
+    worst = std::max(worst,
+                     std::abs(static_cast<double>(a[i]) - b[i]) / std::max(1.0, std::abs(static_cast<double>(b[i]))));
+  return worst;
+}
+
+struct Case {
+  int width, height, min_disparity, num_disparities;
+};
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  std::string device;
+  unsigned seed = 1;
+  int cases = 12;
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    if (a == "--device" && i + 1 < argc) device = argv[++i];
+    else if (a == "--seed" && i + 1 < argc) seed = static_cast<unsigned>(std::strtoul(argv[++i], nullptr, 10));
+    else if (a == "--cases" && i + 1 < argc) cases = std::atoi(argv[++i]);
+    else {
+      std::fprintf(stderr, "usage: %s [--device NAME|INDEX] [--seed N] [--cases N]\n", argv[0]);
+      return 2;
+    }
+  }
+  // Fixed awkward cases first, then random ones.
+  std::vector<Case> list = {{631, 479, 5, 64}, {641, 48, 37, 128}, {97, 33, 0, 16}, {13, 7, 3, 20}, {300, 64, 0, 256}};
+  std::mt19937 rng(seed);
+  const auto uni = [&](int lo, int hi) { return std::uniform_int_distribution<int>(lo, hi)(rng); };
+  while (static_cast<int>(list.size()) < cases) {  // wide enough that part of each row has the whole band
+    const int dmin = uni(0, 30), nd = 2 * uni(1, 64);
+    list.push_back({dmin + nd + uni(8, 300), uni(1, 100), dmin, nd});
+  }
+  list.resize(static_cast<std::size_t>(cases));
+
+  std::unique_ptr<VulkanSgm> sgm;
+  int failures = 0;
+  for (std::size_t k = 0; k < list.size(); ++k) {
+    const Case c = list[k];
+    SgmParams params;
+    constexpr int kPaths[] = {2, 4, 8};
+    params.paths = kPaths[k % 3];
+    params.p1 = uni(0, 30);
+    params.p2 = uni(params.p1 + 1, 300);
+    params.uniqueness = uni(0, 25);
+    params.lr_max_diff = uni(-1, 2);
+    params.median = k % 4 != 3;
+    const SgmBand band{c.min_disparity, c.num_disparities};
+    DicParams dic;
+    dic.half_window = uni(2, 7);
+    dic.half_height = uni(1, 7);
+    dic.step = uni(1, 2);
+    dic.row_step = uni(1, 2);
+    dic.row_begin = uni(0, c.height / 4);
+    dic.row_end = c.height - uni(0, c.height / 4);
+    dic.first_order = k % 5 != 4;
+    dic.max_sigma_px = k % 2 == 0 ? 0.0f : 0.2f;
+    try {
+      sgm = std::make_unique<VulkanSgm>(device, c.width, c.height, c.num_disparities);
+    } catch (const GpuError& e) {
+      if (k == 0) {
+        std::printf("SKIP: no usable Vulkan device: %s\n", e.what());
+        return 77;
+      }
+      std::printf("FAIL case %zu: %s\n", k, e.what());
+      return 1;
+    }
+    if (k == 0)
+      std::printf("device %d: %s (%s, subgroup %u)\n", sgm->device().index, sgm->device().name.c_str(),
+                  sgm->device().type.c_str(), sgm->device().subgroup_size);
+    const auto pair =
+        tools::synthetic_pair(c.width, c.height, c.min_disparity, c.num_disparities, seed + static_cast<unsigned>(k));
+    const ImageView l{pair.left.data(), c.width, c.height, static_cast<std::size_t>(c.width)};
+    const ImageView r{pair.right.data(), c.width, c.height, static_cast<std::size_t>(c.width)};
+    SgmStages ref, dev;
+    sgm_reference(l, r, band, params, ref);
+    bspline_reference(l, ref.spline_left);
+    bspline_reference(r, ref.spline_right);
+    dic_reference(l, ref.spline_left, ref.spline_right, ref.disparity, dic, ref.refined);
+    const GpuStatus s = sgm->compute_stages(l, r, band, params, &dic, dev);
+    std::printf("case %2zu: %4dx%-4d band %3d+%-3d paths %d P1 %2d P2 %3d uniq %2d lr %2d median %d: ", k, c.width,
+                c.height, c.min_disparity, c.num_disparities, params.paths, params.p1, params.p2, params.uniqueness,
+                params.lr_max_diff, params.median ? 1 : 0);
+    if (s != GpuStatus::Ok) {
+      std::printf("FAIL (%s)\n", std::string(to_string(s)).c_str());
+      ++failures;
+      continue;
+    }
+    const long diffs[] = {first_difference(ref.census_left, dev.census_left),
+                          first_difference(ref.census_right, dev.census_right),
+                          first_difference(ref.sums, dev.sums),
+                          first_difference(ref.disparity_left, dev.disparity_left),
+                          first_difference(ref.disparity_right, dev.disparity_right),
+                          first_difference(ref.disparity, dev.disparity)};
+    const char* names[] = {"census left",        "census right", "path sums",
+                           "WTA/sub-pixel left", "WTA right",    "LR check/median"};
+    bool ok = true;
+    for (int i = 0; i < 6; ++i) {
+      if (diffs[i] < 0) continue;
+      if (ok) std::printf("FAIL\n");
+      ok = false;
+      std::printf("    %s differs first at element %ld\n", names[i], diffs[i]);
+    }
+    const double spline =
+        std::max(max_relative(dev.spline_left, ref.spline_left), max_relative(dev.spline_right, ref.spline_right));
+    long valid = 0, refined = 0, one_side = 0;
+    double worst = 0;
+    for (std::size_t i = 0; i < ref.refined.size(); ++i) {
+      valid += !std::isnan(ref.disparity[i]);
+      const bool a = !std::isnan(ref.refined[i]), b = !std::isnan(dev.refined[i]);
+      refined += a;
+      one_side += a != b;
+      if (a && b) worst = std::max(worst, std::abs(static_cast<double>(ref.refined[i]) - dev.refined[i]));
+    }
+    const bool dic_ok =
+        spline <= 1e-3 && worst <= 1.0 / 512 && one_side <= 0.005 * static_cast<double>(ref.refined.size());
+    if (!dic_ok) {
+      if (ok) std::printf("FAIL\n");
+      ok = false;
+      std::printf("    DIC: spline %.2g relative, refined %ld, on one side only %ld, largest difference %.4f px\n",
+                  spline, refined, one_side, worst);
+    }
+    if (ok)
+      std::printf("identical; DIC within %.5f px, %ld of %ld on one side only (%.0f%% valid)\n", worst, one_side,
+                  refined, 100.0 * static_cast<double>(valid) / static_cast<double>(ref.disparity.size()));
+    failures += !ok;
+  }
+  std::printf("%s: %d of %zu cases differ\n", failures ? "FAIL" : "PASS", failures, list.size());
+  return failures ? 1 : 0;
+}

@@ -1,0 +1,750 @@
+#include "gpu/vulkan_sgm.hpp"
+
+#include <vulkan/vulkan.h>
+
+#include <algorithm>
+#include <array>
+#include <cctype>
+#include <cmath>
+#include <cstring>
+#include <limits>
+#include <tuple>
+
+namespace rutd::gpu {
+namespace {
+
+// SPIR-V of shaders/*.comp, compiled by glslc at build time (pipeline/gpu/CMakeLists.txt).
+const std::uint32_t kCensusSpv[] =
+#include "census.comp.inc"
+    ;
+const std::uint32_t kAggregateSpv[] =
+#include "aggregate.comp.inc"
+    ;
+const std::uint32_t kWtaSpv[] =
+#include "wta.comp.inc"
+    ;
+const std::uint32_t kLrMedianSpv[] =
+#include "lr_median.comp.inc"
+    ;
+const std::uint32_t kBsplineSpv[] =
+#include "bspline.comp.inc"
+    ;
+const std::uint32_t kDicSpv[] =
+#include "dic.comp.inc"
+    ;
+
+constexpr int kSlots = 2;
+constexpr std::uint32_t kTimestamps = 8;  // start, after upload, census, aggregate, wta, lr/median, dic, download
+
+// A Vulkan info structure: zeroed, its type set.
+template <class T>
+T info_struct(VkStructureType type) {
+  T v{};
+  v.sType = type;
+  return v;
+}
+
+std::string result_name(VkResult r) {
+  switch (r) {
+    case VK_SUCCESS: return "VK_SUCCESS";
+    case VK_TIMEOUT: return "VK_TIMEOUT";
+    case VK_ERROR_OUT_OF_HOST_MEMORY: return "VK_ERROR_OUT_OF_HOST_MEMORY";
+    case VK_ERROR_OUT_OF_DEVICE_MEMORY: return "VK_ERROR_OUT_OF_DEVICE_MEMORY";
+    case VK_ERROR_INITIALIZATION_FAILED: return "VK_ERROR_INITIALIZATION_FAILED";
+    case VK_ERROR_DEVICE_LOST: return "VK_ERROR_DEVICE_LOST";
+    case VK_ERROR_MEMORY_MAP_FAILED: return "VK_ERROR_MEMORY_MAP_FAILED";
+    case VK_ERROR_LAYER_NOT_PRESENT: return "VK_ERROR_LAYER_NOT_PRESENT";
+    case VK_ERROR_EXTENSION_NOT_PRESENT: return "VK_ERROR_EXTENSION_NOT_PRESENT";
+    case VK_ERROR_FEATURE_NOT_PRESENT: return "VK_ERROR_FEATURE_NOT_PRESENT";
+    case VK_ERROR_INCOMPATIBLE_DRIVER: return "VK_ERROR_INCOMPATIBLE_DRIVER";
+    case VK_ERROR_TOO_MANY_OBJECTS: return "VK_ERROR_TOO_MANY_OBJECTS";
+    default: return "VkResult " + std::to_string(static_cast<int>(r));
+  }
+}
+
+// Start-up: any failure throws.
+void check(VkResult r, const char* call) {
+  if (r != VK_SUCCESS) throw GpuError(std::string(call) + ": " + result_name(r));
+}
+
+// Per frame: a status the caller acts on.
+GpuStatus status_of(VkResult r) {
+  switch (r) {
+    case VK_SUCCESS: return GpuStatus::Ok;
+    case VK_TIMEOUT: return GpuStatus::Timeout;
+    case VK_ERROR_OUT_OF_HOST_MEMORY:
+    case VK_ERROR_OUT_OF_DEVICE_MEMORY: return GpuStatus::OutOfMemory;
+    case VK_ERROR_DEVICE_LOST: return GpuStatus::DeviceLost;
+    default: return GpuStatus::Failed;
+  }
+}
+
+const char* type_name(VkPhysicalDeviceType t) {
+  switch (t) {
+    case VK_PHYSICAL_DEVICE_TYPE_DISCRETE_GPU: return "discrete";
+    case VK_PHYSICAL_DEVICE_TYPE_INTEGRATED_GPU: return "integrated";
+    case VK_PHYSICAL_DEVICE_TYPE_VIRTUAL_GPU: return "virtual";
+    case VK_PHYSICAL_DEVICE_TYPE_CPU: return "cpu";
+    default: return "other";
+  }
+}
+
+int type_rank(VkPhysicalDeviceType t) {
+  switch (t) {
+    case VK_PHYSICAL_DEVICE_TYPE_DISCRETE_GPU: return 0;
+    case VK_PHYSICAL_DEVICE_TYPE_INTEGRATED_GPU: return 1;
+    case VK_PHYSICAL_DEVICE_TYPE_VIRTUAL_GPU: return 2;
+    case VK_PHYSICAL_DEVICE_TYPE_CPU: return 3;
+    default: return 4;
+  }
+}
+
+VkInstance make_instance() {
+  auto app = info_struct<VkApplicationInfo>(VK_STRUCTURE_TYPE_APPLICATION_INFO);
+  app.pApplicationName = "rutd";
+  app.apiVersion = VK_API_VERSION_1_1;
+  auto ci = info_struct<VkInstanceCreateInfo>(VK_STRUCTURE_TYPE_INSTANCE_CREATE_INFO);
+  ci.pApplicationInfo = &app;
+  VkInstance instance = VK_NULL_HANDLE;
+  check(vkCreateInstance(&ci, nullptr, &instance), "vkCreateInstance");
+  return instance;
+}
+
+std::vector<VkPhysicalDevice> physical_devices(VkInstance instance) {
+  std::uint32_t n = 0;
+  check(vkEnumeratePhysicalDevices(instance, &n, nullptr), "vkEnumeratePhysicalDevices");
+  std::vector<VkPhysicalDevice> devices(n);
+  check(vkEnumeratePhysicalDevices(instance, &n, devices.data()), "vkEnumeratePhysicalDevices");
+  devices.resize(n);
+  return devices;
+}
+
+GpuDeviceInfo describe(VkPhysicalDevice pd, int index) {
+  auto sub = info_struct<VkPhysicalDeviceSubgroupProperties>(VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_SUBGROUP_PROPERTIES);
+  auto props = info_struct<VkPhysicalDeviceProperties2>(VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_PROPERTIES_2);
+  props.pNext = &sub;
+  vkGetPhysicalDeviceProperties2(pd, &props);
+  GpuDeviceInfo info;
+  info.index = index;
+  info.name = props.properties.deviceName;
+  info.type = type_name(props.properties.deviceType);
+  info.subgroup_size = sub.subgroupSize;
+  const VkSubgroupFeatureFlags need = VK_SUBGROUP_FEATURE_BASIC_BIT | VK_SUBGROUP_FEATURE_ARITHMETIC_BIT;
+  info.usable = props.properties.apiVersion >= VK_API_VERSION_1_1 && (sub.supportedOperations & need) == need &&
+                (sub.supportedStages & VK_SHADER_STAGE_COMPUTE_BIT) != 0;
+  return info;
+}
+
+std::string lower(std::string s) {
+  for (char& c : s) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return s;
+}
+
+struct Buffer {
+  VkBuffer buffer = VK_NULL_HANDLE;
+  VkDeviceMemory memory = VK_NULL_HANDLE;
+  VkDeviceSize size = 0;
+  void* mapped = nullptr;  // host-visible buffers stay mapped
+};
+
+struct Kernel {
+  VkDescriptorSetLayout set_layout = VK_NULL_HANDLE;
+  VkPipelineLayout layout = VK_NULL_HANDLE;
+  VkPipeline pipeline = VK_NULL_HANDLE;
+  VkDescriptorSet set = VK_NULL_HANDLE;
+};
+
+struct AggregatePush {
+  std::int32_t width, height, min_disparity, num_disparities, p1, p2;
+};
+struct WtaPush {
+  std::int32_t width, height, min_disparity, num_disparities, uniqueness;
+};
+struct LrMedianPush {
+  std::int32_t width, height, max_diff, median;
+};
+struct CensusPush {
+  std::int32_t width, height, words_per_row;
+};
+struct DicPush {
+  std::int32_t width, height, words_per_row, h, hh, max_iterations, step, row_step, row_begin, row_end, first_order;
+  float tolerance, max_shift, max_gradient, min_gradient, min_zncc, max_sigma;
+};
+
+std::uint32_t groups(int n, int size) { return static_cast<std::uint32_t>((n + size - 1) / size); }
+
+}  // namespace
+
+std::string_view to_string(GpuStatus status) {
+  switch (status) {
+    case GpuStatus::Ok: return "ok";
+    case GpuStatus::InvalidInput: return "invalid input";
+    case GpuStatus::Timeout: return "timeout";
+    case GpuStatus::OutOfMemory: return "out of memory";
+    case GpuStatus::DeviceLost: return "device lost";
+    case GpuStatus::Failed: return "failed";
+  }
+  return "unknown";
+}
+
+std::vector<GpuDeviceInfo> list_gpu_devices() {
+  VkInstance instance = make_instance();
+  std::vector<GpuDeviceInfo> out;
+  try {
+    const auto devices = physical_devices(instance);
+    for (std::size_t i = 0; i < devices.size(); ++i) out.push_back(describe(devices[i], static_cast<int>(i)));
+  } catch (...) {
+    vkDestroyInstance(instance, nullptr);
+    throw;
+  }
+  vkDestroyInstance(instance, nullptr);
+  return out;
+}
+
+struct VulkanSgm::Impl {
+  int width = 0, height = 0, max_disparities = 0, words_per_row = 0;
+  std::uint64_t timeout_ns = 0;
+  GpuDeviceInfo info;
+  VkInstance instance = VK_NULL_HANDLE;
+  VkPhysicalDevice physical = VK_NULL_HANDLE;
+  VkDevice device = VK_NULL_HANDLE;
+  VkQueue queue = VK_NULL_HANDLE;
+  std::uint32_t family = 0;
+  VkPhysicalDeviceMemoryProperties memory{};
+  double timestamp_ns = 0;  // per tick; 0: no timestamps on this queue
+  VkCommandPool pool = VK_NULL_HANDLE;
+  VkDescriptorPool descriptors = VK_NULL_HANDLE;
+  VkQueryPool queries = VK_NULL_HANDLE;
+  // Device buffers, shared by both slots (their work is serialised on the one queue).
+  Buffer image_left, image_right, census_left, census_right, sums, disp_left, disp_right, disparity;
+  Buffer spline_left, spline_right, refined;  // DIC
+  struct Slot {
+    Buffer upload;    // host-visible: left then right image, packed words
+    Buffer download;  // host-visible: the disparity, floats
+    VkCommandBuffer commands = VK_NULL_HANDLE;
+    VkFence fence = VK_NULL_HANDLE;
+    bool busy = false;
+  };
+  std::array<Slot, kSlots> slots;
+  int next_slot = 0;
+  Kernel census, aggregate, wta, lr_median, bspline, dic;
+  bool lost = false;
+
+  ~Impl() {
+    if (device) {
+      vkDeviceWaitIdle(device);
+      for (Kernel* k : {&census, &aggregate, &wta, &lr_median, &bspline, &dic}) {
+        vkDestroyPipeline(device, k->pipeline, nullptr);
+        vkDestroyPipelineLayout(device, k->layout, nullptr);
+        vkDestroyDescriptorSetLayout(device, k->set_layout, nullptr);
+      }
+      for (Buffer* b :
+           {&image_left, &image_right, &census_left, &census_right, &sums, &disp_left, &disp_right, &disparity})
+        destroy(*b);
+      for (Slot& s : slots) {
+        destroy(s.upload);
+        destroy(s.download);
+        vkDestroyFence(device, s.fence, nullptr);
+      }
+      vkDestroyQueryPool(device, queries, nullptr);
+      vkDestroyDescriptorPool(device, descriptors, nullptr);
+      vkDestroyCommandPool(device, pool, nullptr);
+      vkDestroyDevice(device, nullptr);
+    }
+    if (instance) vkDestroyInstance(instance, nullptr);
+  }
+
+  void destroy(Buffer& b) {
+    if (b.mapped) vkUnmapMemory(device, b.memory);
+    vkDestroyBuffer(device, b.buffer, nullptr);
+    vkFreeMemory(device, b.memory, nullptr);
+    b = Buffer{};
+  }
+
+  void select(const std::string& wanted) {
+    const auto devices = physical_devices(instance);
+    std::vector<GpuDeviceInfo> infos;
+    for (std::size_t i = 0; i < devices.size(); ++i) infos.push_back(describe(devices[i], static_cast<int>(i)));
+    std::string listing;
+    for (const auto& d : infos)
+      listing +=
+          (listing.empty() ? "" : ", ") + std::to_string(d.index) + ": " + d.name + (d.usable ? "" : " (unusable)");
+    if (listing.empty()) listing = "none";
+    int chosen = -1;
+    const bool numeric = !wanted.empty() && std::all_of(wanted.begin(), wanted.end(), [](char c) {
+      return std::isdigit(static_cast<unsigned char>(c));
+    });
+    if (numeric) {
+      const int i = std::stoi(wanted);
+      if (i < static_cast<int>(infos.size()) && infos[static_cast<std::size_t>(i)].usable) chosen = i;
+    } else {
+      int best_rank = std::numeric_limits<int>::max();
+      for (const auto& d : infos) {
+        if (!d.usable) continue;
+        if (!wanted.empty()) {
+          if (lower(d.name).find(lower(wanted)) == std::string::npos) continue;
+          chosen = d.index;
+          break;
+        }
+        VkPhysicalDeviceProperties p;
+        vkGetPhysicalDeviceProperties(devices[static_cast<std::size_t>(d.index)], &p);
+        if (type_rank(p.deviceType) < best_rank) {
+          best_rank = type_rank(p.deviceType);
+          chosen = d.index;
+        }
+      }
+    }
+    if (chosen < 0)
+      throw GpuError("no usable Vulkan device" + (wanted.empty() ? std::string() : " matching '" + wanted + "'") +
+                     " (devices: " + listing + ")");
+    physical = devices[static_cast<std::size_t>(chosen)];
+    info = infos[static_cast<std::size_t>(chosen)];
+  }
+
+  void make_device() {
+    std::uint32_t n = 0;
+    vkGetPhysicalDeviceQueueFamilyProperties(physical, &n, nullptr);
+    std::vector<VkQueueFamilyProperties> families(n);
+    vkGetPhysicalDeviceQueueFamilyProperties(physical, &n, families.data());
+    bool found = false;
+    for (std::uint32_t i = 0; i < n && !found; ++i) {
+      if (families[i].queueFlags & VK_QUEUE_COMPUTE_BIT) {
+        family = i;
+        found = true;
+      }
+    }
+    if (!found) throw GpuError(info.name + ": no compute queue");
+    const float priority = 1.0f;
+    auto qi = info_struct<VkDeviceQueueCreateInfo>(VK_STRUCTURE_TYPE_DEVICE_QUEUE_CREATE_INFO);
+    qi.queueFamilyIndex = family;
+    qi.queueCount = 1;
+    qi.pQueuePriorities = &priority;
+    auto di = info_struct<VkDeviceCreateInfo>(VK_STRUCTURE_TYPE_DEVICE_CREATE_INFO);
+    di.queueCreateInfoCount = 1;
+    di.pQueueCreateInfos = &qi;
+    check(vkCreateDevice(physical, &di, nullptr, &device), "vkCreateDevice");
+    vkGetDeviceQueue(device, family, 0, &queue);
+    vkGetPhysicalDeviceMemoryProperties(physical, &memory);
+    VkPhysicalDeviceProperties p;
+    vkGetPhysicalDeviceProperties(physical, &p);
+    if (families[family].timestampValidBits > 0) timestamp_ns = p.limits.timestampPeriod;
+  }
+
+  Buffer make_buffer(VkDeviceSize size, VkBufferUsageFlags usage, bool host) {
+    Buffer b;
+    b.size = std::max<VkDeviceSize>(size, 4);
+    auto bi = info_struct<VkBufferCreateInfo>(VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO);
+    bi.size = b.size;
+    bi.usage = usage;
+    bi.sharingMode = VK_SHARING_MODE_EXCLUSIVE;
+    check(vkCreateBuffer(device, &bi, nullptr, &b.buffer), "vkCreateBuffer");
+    VkMemoryRequirements req;
+    vkGetBufferMemoryRequirements(device, b.buffer, &req);
+    // Host buffers: coherent, cached if possible (the download is read by the CPU). Device buffers: local.
+    const VkMemoryPropertyFlags want =
+        host ? (VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT)
+             : VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT;
+    std::uint32_t type = std::numeric_limits<std::uint32_t>::max();
+    for (int pass = 0; pass < 2 && type == std::numeric_limits<std::uint32_t>::max(); ++pass) {
+      for (std::uint32_t i = 0; i < memory.memoryTypeCount; ++i) {
+        const VkMemoryPropertyFlags f = memory.memoryTypes[i].propertyFlags;
+        const bool cached = (f & VK_MEMORY_PROPERTY_HOST_CACHED_BIT) != 0;
+        if ((req.memoryTypeBits & (1u << i)) && (f & want) == want && (pass == 1 || !host || cached)) {
+          type = i;
+          break;
+        }
+      }
+    }
+    if (type == std::numeric_limits<std::uint32_t>::max()) throw GpuError(info.name + ": no suitable memory type");
+    auto ai = info_struct<VkMemoryAllocateInfo>(VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO);
+    ai.allocationSize = req.size;
+    ai.memoryTypeIndex = type;
+    check(vkAllocateMemory(device, &ai, nullptr, &b.memory), "vkAllocateMemory");
+    check(vkBindBufferMemory(device, b.buffer, b.memory, 0), "vkBindBufferMemory");
+    if (host) check(vkMapMemory(device, b.memory, 0, VK_WHOLE_SIZE, 0, &b.mapped), "vkMapMemory");
+    return b;
+  }
+
+  Kernel make_kernel(const std::uint32_t* spv, std::size_t bytes, std::uint32_t push_bytes,
+                     std::vector<const Buffer*> bindings) {
+    Kernel k;
+    std::vector<VkDescriptorSetLayoutBinding> lb(bindings.size());
+    for (std::size_t i = 0; i < lb.size(); ++i) {
+      lb[i] = VkDescriptorSetLayoutBinding{static_cast<std::uint32_t>(i), VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1,
+                                           VK_SHADER_STAGE_COMPUTE_BIT, nullptr};
+    }
+    auto li = info_struct<VkDescriptorSetLayoutCreateInfo>(VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO);
+    li.bindingCount = static_cast<std::uint32_t>(lb.size());
+    li.pBindings = lb.data();
+    check(vkCreateDescriptorSetLayout(device, &li, nullptr, &k.set_layout), "vkCreateDescriptorSetLayout");
+    const VkPushConstantRange range{VK_SHADER_STAGE_COMPUTE_BIT, 0, push_bytes};
+    auto pli = info_struct<VkPipelineLayoutCreateInfo>(VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO);
+    pli.setLayoutCount = 1;
+    pli.pSetLayouts = &k.set_layout;
+    pli.pushConstantRangeCount = 1;
+    pli.pPushConstantRanges = &range;
+    check(vkCreatePipelineLayout(device, &pli, nullptr, &k.layout), "vkCreatePipelineLayout");
+    auto mi = info_struct<VkShaderModuleCreateInfo>(VK_STRUCTURE_TYPE_SHADER_MODULE_CREATE_INFO);
+    mi.codeSize = bytes;
+    mi.pCode = spv;
+    VkShaderModule module = VK_NULL_HANDLE;
+    check(vkCreateShaderModule(device, &mi, nullptr, &module), "vkCreateShaderModule");
+    auto ci = info_struct<VkComputePipelineCreateInfo>(VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO);
+    ci.stage = info_struct<VkPipelineShaderStageCreateInfo>(VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO);
+    ci.stage.stage = VK_SHADER_STAGE_COMPUTE_BIT;
+    ci.stage.module = module;
+    ci.stage.pName = "main";
+    ci.layout = k.layout;
+    const VkResult r = vkCreateComputePipelines(device, VK_NULL_HANDLE, 1, &ci, nullptr, &k.pipeline);
+    vkDestroyShaderModule(device, module, nullptr);
+    check(r, "vkCreateComputePipelines");
+    auto ai = info_struct<VkDescriptorSetAllocateInfo>(VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO);
+    ai.descriptorPool = descriptors;
+    ai.descriptorSetCount = 1;
+    ai.pSetLayouts = &k.set_layout;
+    check(vkAllocateDescriptorSets(device, &ai, &k.set), "vkAllocateDescriptorSets");
+    std::vector<VkDescriptorBufferInfo> bi(bindings.size());
+    std::vector<VkWriteDescriptorSet> w(bindings.size());
+    for (std::size_t i = 0; i < bindings.size(); ++i) {
+      bi[i] = VkDescriptorBufferInfo{bindings[i]->buffer, 0, VK_WHOLE_SIZE};
+      w[i] = info_struct<VkWriteDescriptorSet>(VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET);
+      w[i].dstSet = k.set;
+      w[i].dstBinding = static_cast<std::uint32_t>(i);
+      w[i].descriptorCount = 1;
+      w[i].descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
+      w[i].pBufferInfo = &bi[i];
+    }
+    vkUpdateDescriptorSets(device, static_cast<std::uint32_t>(w.size()), w.data(), 0, nullptr);
+    return k;
+  }
+
+  void setup() {
+    words_per_row = (width + 3) / 4;
+    const auto pixels = static_cast<VkDeviceSize>(width) * static_cast<VkDeviceSize>(height);
+    const VkDeviceSize image_bytes = static_cast<VkDeviceSize>(words_per_row) * static_cast<VkDeviceSize>(height) * 4;
+    const VkBufferUsageFlags storage =
+        VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_SRC_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT;
+    image_left = make_buffer(image_bytes, storage, false);
+    image_right = make_buffer(image_bytes, storage, false);
+    census_left = make_buffer(pixels * 8, storage, false);
+    census_right = make_buffer(pixels * 8, storage, false);
+    sums = make_buffer(pixels * static_cast<VkDeviceSize>(max_disparities) * 2, storage, false);
+    disp_left = make_buffer(pixels * 4, storage, false);
+    disp_right = make_buffer(pixels * 4, storage, false);
+    disparity = make_buffer(pixels * 4, storage, false);
+    spline_left = make_buffer(pixels * 4, storage, false);
+    spline_right = make_buffer(pixels * 4, storage, false);
+    refined = make_buffer(pixels * 4, storage, false);
+
+    auto pi = info_struct<VkCommandPoolCreateInfo>(VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO);
+    pi.flags = VK_COMMAND_POOL_CREATE_RESET_COMMAND_BUFFER_BIT;
+    pi.queueFamilyIndex = family;
+    check(vkCreateCommandPool(device, &pi, nullptr, &pool), "vkCreateCommandPool");
+    for (Slot& s : slots) {
+      s.upload = make_buffer(image_bytes * 2, VK_BUFFER_USAGE_TRANSFER_SRC_BIT, true);
+      s.download = make_buffer(pixels * 4, VK_BUFFER_USAGE_TRANSFER_DST_BIT, true);
+      auto ai = info_struct<VkCommandBufferAllocateInfo>(VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO);
+      ai.commandPool = pool;
+      ai.level = VK_COMMAND_BUFFER_LEVEL_PRIMARY;
+      ai.commandBufferCount = 1;
+      check(vkAllocateCommandBuffers(device, &ai, &s.commands), "vkAllocateCommandBuffers");
+      auto fi = info_struct<VkFenceCreateInfo>(VK_STRUCTURE_TYPE_FENCE_CREATE_INFO);
+      check(vkCreateFence(device, &fi, nullptr, &s.fence), "vkCreateFence");
+    }
+    if (timestamp_ns > 0) {
+      auto qi = info_struct<VkQueryPoolCreateInfo>(VK_STRUCTURE_TYPE_QUERY_POOL_CREATE_INFO);
+      qi.queryType = VK_QUERY_TYPE_TIMESTAMP;
+      qi.queryCount = kTimestamps * kSlots;
+      check(vkCreateQueryPool(device, &qi, nullptr, &queries), "vkCreateQueryPool");
+    }
+    const VkDescriptorPoolSize size{VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 32};
+    auto dpi = info_struct<VkDescriptorPoolCreateInfo>(VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO);
+    dpi.maxSets = 6;
+    dpi.poolSizeCount = 1;
+    dpi.pPoolSizes = &size;
+    check(vkCreateDescriptorPool(device, &dpi, nullptr, &descriptors), "vkCreateDescriptorPool");
+    census = make_kernel(kCensusSpv, sizeof kCensusSpv, sizeof(CensusPush),
+                         {&image_left, &image_right, &census_left, &census_right});
+    aggregate =
+        make_kernel(kAggregateSpv, sizeof kAggregateSpv, sizeof(AggregatePush), {&census_left, &census_right, &sums});
+    wta = make_kernel(kWtaSpv, sizeof kWtaSpv, sizeof(WtaPush), {&sums, &disp_left, &disp_right});
+    lr_median =
+        make_kernel(kLrMedianSpv, sizeof kLrMedianSpv, sizeof(LrMedianPush), {&disp_left, &disp_right, &disparity});
+    bspline = make_kernel(kBsplineSpv, sizeof kBsplineSpv, sizeof(CensusPush),
+                          {&image_left, &image_right, &spline_left, &spline_right});
+    dic = make_kernel(kDicSpv, sizeof kDicSpv, sizeof(DicPush),
+                      {&image_left, &spline_left, &spline_right, &disparity, &refined});
+  }
+
+  void barrier(VkCommandBuffer cb, VkPipelineStageFlags src, VkPipelineStageFlags dst) {
+    auto mb = info_struct<VkMemoryBarrier>(VK_STRUCTURE_TYPE_MEMORY_BARRIER);
+    mb.srcAccessMask = VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_TRANSFER_WRITE_BIT;
+    mb.dstAccessMask = VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_TRANSFER_READ_BIT |
+                       VK_ACCESS_TRANSFER_WRITE_BIT | VK_ACCESS_HOST_READ_BIT;
+    vkCmdPipelineBarrier(cb, src, dst, 0, 1, &mb, 0, nullptr, 0, nullptr);
+  }
+
+  void stamp(VkCommandBuffer cb, int slot, std::uint32_t i) {
+    if (queries)
+      vkCmdWriteTimestamp(cb, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, queries,
+                          static_cast<std::uint32_t>(slot) * kTimestamps + i);
+  }
+
+  template <class Push>
+  void dispatch(VkCommandBuffer cb, const Kernel& k, const Push& push, std::uint32_t x, std::uint32_t y,
+                std::uint32_t z) {
+    vkCmdBindPipeline(cb, VK_PIPELINE_BIND_POINT_COMPUTE, k.pipeline);
+    vkCmdBindDescriptorSets(cb, VK_PIPELINE_BIND_POINT_COMPUTE, k.layout, 0, 1, &k.set, 0, nullptr);
+    vkCmdPushConstants(cb, k.layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(Push), &push);
+    vkCmdDispatch(cb, x, y, z);
+  }
+
+  VkResult record(int slot, SgmBand band, const SgmParams& params, const DicParams* dic_params) {
+    const VkCommandBuffer cb = slots[static_cast<std::size_t>(slot)].commands;
+    constexpr VkPipelineStageFlags compute = VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT;
+    constexpr VkPipelineStageFlags transfer = VK_PIPELINE_STAGE_TRANSFER_BIT;
+    VkResult r = vkResetCommandBuffer(cb, 0);
+    if (r != VK_SUCCESS) return r;
+    auto bi = info_struct<VkCommandBufferBeginInfo>(VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO);
+    bi.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;
+    if ((r = vkBeginCommandBuffer(cb, &bi)) != VK_SUCCESS) return r;
+    if (queries) vkCmdResetQueryPool(cb, queries, static_cast<std::uint32_t>(slot) * kTimestamps, kTimestamps);
+    // The other slot's frame used the same device buffers: its writes (and reads) finish first.
+    barrier(cb, compute | transfer, compute | transfer);
+    stamp(cb, slot, 0);
+    const Buffer& up = slots[static_cast<std::size_t>(slot)].upload;
+    const VkDeviceSize half = up.size / 2;
+    VkBufferCopy copy{0, 0, half};
+    vkCmdCopyBuffer(cb, up.buffer, image_left.buffer, 1, &copy);
+    copy.srcOffset = half;
+    vkCmdCopyBuffer(cb, up.buffer, image_right.buffer, 1, &copy);
+    barrier(cb, transfer, compute);
+    stamp(cb, slot, 1);
+    dispatch(cb, census, CensusPush{width, height, words_per_row}, groups(width, 16), groups(height, 8), 2);
+    if (dic_params)
+      dispatch(cb, bspline, CensusPush{width, height, words_per_row}, groups(width, 64),
+               static_cast<std::uint32_t>(height), 2);
+    barrier(cb, compute, compute);
+    stamp(cb, slot, 2);
+    // The directions add into the sums concurrently (aggregate.comp): zero them first.
+    const VkDeviceSize sum_bytes = static_cast<VkDeviceSize>(width) * static_cast<VkDeviceSize>(height) *
+                                   static_cast<VkDeviceSize>(band.num_disparities) * 2;
+    vkCmdFillBuffer(cb, sums.buffer, 0, sum_bytes, 0);
+    barrier(cb, transfer, compute);
+    const int lines = params.paths == 2 ? height : params.paths == 4 ? std::max(width, height) : width + height - 1;
+    dispatch(cb, aggregate,
+             AggregatePush{width, height, band.min_disparity, band.num_disparities, params.p1, params.p2},
+             static_cast<std::uint32_t>(lines), static_cast<std::uint32_t>(params.paths), 1);
+    barrier(cb, compute, compute);
+    stamp(cb, slot, 3);
+    dispatch(cb, wta, WtaPush{width, height, band.min_disparity, band.num_disparities, params.uniqueness},
+             groups(width, 64), static_cast<std::uint32_t>(height), 1);
+    barrier(cb, compute, compute);
+    stamp(cb, slot, 4);
+    dispatch(cb, lr_median, LrMedianPush{width, height, params.lr_max_diff, params.median ? 1 : 0}, groups(width, 64),
+             static_cast<std::uint32_t>(height), 1);
+    barrier(cb, compute, compute | transfer);
+    stamp(cb, slot, 5);
+    if (dic_params) {
+      const DicParams& d = *dic_params;
+      const DicPush push{
+          width,          height,         words_per_row,  d.half_window, d.half_height,         d.max_iterations,
+          d.step,         d.row_step,     d.row_begin,    d.row_end,     d.first_order ? 1 : 0, d.tolerance_px,
+          d.max_shift_px, d.max_gradient, d.min_gradient, d.min_zncc,    d.max_sigma_px};
+      dispatch(cb, dic, push, groups(width, 64), static_cast<std::uint32_t>(height), 1);
+      barrier(cb, compute, transfer);
+    }
+    stamp(cb, slot, 6);
+    const Buffer& down = slots[static_cast<std::size_t>(slot)].download;
+    copy = VkBufferCopy{0, 0, down.size};
+    vkCmdCopyBuffer(cb, (dic_params ? refined : disparity).buffer, down.buffer, 1, &copy);
+    barrier(cb, transfer, VK_PIPELINE_STAGE_HOST_BIT);
+    stamp(cb, slot, 7);
+    return vkEndCommandBuffer(cb);
+  }
+
+  GpuStatus fail(VkResult r) {
+    const GpuStatus s = status_of(r);
+    if (s == GpuStatus::DeviceLost) lost = true;
+    return s;
+  }
+
+  // Test path: copies a device buffer back through a temporary host buffer.
+  VkResult read_back(const Buffer& src, void* dst, std::size_t bytes) {
+    Buffer tmp = make_buffer(bytes, VK_BUFFER_USAGE_TRANSFER_DST_BIT, true);
+    auto ai = info_struct<VkCommandBufferAllocateInfo>(VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO);
+    ai.commandPool = pool;
+    ai.level = VK_COMMAND_BUFFER_LEVEL_PRIMARY;
+    ai.commandBufferCount = 1;
+    VkCommandBuffer cb = VK_NULL_HANDLE;
+    VkResult r = vkAllocateCommandBuffers(device, &ai, &cb);
+    if (r == VK_SUCCESS) {
+      auto bi = info_struct<VkCommandBufferBeginInfo>(VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO);
+      vkBeginCommandBuffer(cb, &bi);
+      barrier(cb, VK_PIPELINE_STAGE_ALL_COMMANDS_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT);
+      const VkBufferCopy copy{0, 0, bytes};
+      vkCmdCopyBuffer(cb, src.buffer, tmp.buffer, 1, &copy);
+      barrier(cb, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_PIPELINE_STAGE_HOST_BIT);
+      r = vkEndCommandBuffer(cb);
+      auto si = info_struct<VkSubmitInfo>(VK_STRUCTURE_TYPE_SUBMIT_INFO);
+      si.commandBufferCount = 1;
+      si.pCommandBuffers = &cb;
+      if (r == VK_SUCCESS) r = vkQueueSubmit(queue, 1, &si, VK_NULL_HANDLE);
+      if (r == VK_SUCCESS) r = vkQueueWaitIdle(queue);
+      if (r == VK_SUCCESS) std::memcpy(dst, tmp.mapped, bytes);
+      vkFreeCommandBuffers(device, pool, 1, &cb);
+    }
+    destroy(tmp);
+    return r;
+  }
+};
+
+VulkanSgm::VulkanSgm(const std::string& device, int width, int height, int max_disparities, int timeout_ms)
+    : impl_(std::make_unique<Impl>()) {
+  if (width < 1 || height < 1 || max_disparities < 2 || max_disparities > kMaxDisparities)
+    throw GpuError("VulkanSgm: bad size " + std::to_string(width) + "x" + std::to_string(height) + ", " +
+                   std::to_string(max_disparities) + " disparities");
+  Impl& m = *impl_;
+  m.width = width;
+  m.height = height;
+  m.max_disparities = max_disparities;
+  m.instance = make_instance();
+  m.select(device);
+  if (timeout_ms <= 0) timeout_ms = m.info.type == "cpu" ? 300000 : 2000;
+  m.timeout_ns = static_cast<std::uint64_t>(timeout_ms) * 1000000u;
+  try {
+    m.make_device();
+    m.setup();
+  } catch (const GpuError& e) {
+    throw GpuError(m.info.name + ": " + e.what());
+  }
+}
+
+VulkanSgm::~VulkanSgm() = default;
+
+const GpuDeviceInfo& VulkanSgm::device() const { return impl_->info; }
+int VulkanSgm::width() const { return impl_->width; }
+int VulkanSgm::height() const { return impl_->height; }
+
+GpuStatus VulkanSgm::submit(const ImageView& left, const ImageView& right, SgmBand band, const SgmParams& params,
+                            const DicParams* dic, int& ticket) {
+  Impl& m = *impl_;
+  if (m.lost) return GpuStatus::DeviceLost;
+  if (left.width != m.width || left.height != m.height || right.width != m.width || right.height != m.height ||
+      !left.data || !right.data || band.num_disparities > m.max_disparities ||
+      !check_sgm_input(m.width, m.height, band, params).empty() || (dic && !check_dic_params(*dic).empty()))
+    return GpuStatus::InvalidInput;
+  ticket = m.next_slot;
+  Impl::Slot& slot = m.slots[static_cast<std::size_t>(ticket)];
+  if (slot.busy) return GpuStatus::InvalidInput;  // two frames already in flight
+  // Pack both images into the upload buffer: words of four pixels, rows padded to whole words.
+  auto* words = static_cast<std::uint8_t*>(slot.upload.mapped);
+  const std::size_t row_bytes = static_cast<std::size_t>(m.words_per_row) * 4;
+  const std::size_t half = static_cast<std::size_t>(slot.upload.size / 2);
+  for (int i = 0; i < 2; ++i) {
+    const ImageView& im = i == 0 ? left : right;
+    for (int y = 0; y < m.height; ++y) {
+      std::uint8_t* row = words + static_cast<std::size_t>(i) * half + static_cast<std::size_t>(y) * row_bytes;
+      std::memcpy(row, im.data + static_cast<std::size_t>(y) * im.stride, static_cast<std::size_t>(m.width));
+      std::memset(row + m.width, 0, row_bytes - static_cast<std::size_t>(m.width));
+    }
+  }
+  VkResult r = m.record(ticket, band, params, dic);
+  if (r == VK_SUCCESS) r = vkResetFences(m.device, 1, &slot.fence);
+  if (r == VK_SUCCESS) {
+    auto si = info_struct<VkSubmitInfo>(VK_STRUCTURE_TYPE_SUBMIT_INFO);
+    si.commandBufferCount = 1;
+    si.pCommandBuffers = &slot.commands;
+    r = vkQueueSubmit(m.queue, 1, &si, slot.fence);
+  }
+  if (r != VK_SUCCESS) return m.fail(r);
+  slot.busy = true;
+  m.next_slot = (m.next_slot + 1) % kSlots;
+  return GpuStatus::Ok;
+}
+
+GpuStatus VulkanSgm::collect(int ticket, float* disparity, std::size_t stride, GpuStageTimes* times) {
+  Impl& m = *impl_;
+  if (ticket < 0 || ticket >= kSlots || !m.slots[static_cast<std::size_t>(ticket)].busy) return GpuStatus::InvalidInput;
+  Impl::Slot& slot = m.slots[static_cast<std::size_t>(ticket)];
+  const VkResult r = vkWaitForFences(m.device, 1, &slot.fence, VK_TRUE, m.timeout_ns);
+  if (r != VK_SUCCESS) {
+    // On a timeout the slot stays busy: its buffers may still be written.
+    if (r != VK_TIMEOUT) slot.busy = false;
+    return m.fail(r);
+  }
+  slot.busy = false;
+  const auto* src = static_cast<const float*>(slot.download.mapped);
+  for (int y = 0; y < m.height; ++y)
+    std::memcpy(disparity + static_cast<std::size_t>(y) * stride,
+                src + static_cast<std::size_t>(y) * static_cast<std::size_t>(m.width),
+                static_cast<std::size_t>(m.width) * sizeof(float));
+  if (times) {
+    *times = GpuStageTimes{};
+    std::array<std::uint64_t, kTimestamps> t{};
+    if (m.queries &&
+        vkGetQueryPoolResults(m.device, m.queries, static_cast<std::uint32_t>(ticket) * kTimestamps, kTimestamps,
+                              sizeof t, t.data(), sizeof(std::uint64_t), VK_QUERY_RESULT_64_BIT) == VK_SUCCESS) {
+      const auto ms = [&](int a, int b) {
+        return static_cast<double>(t[static_cast<std::size_t>(b)] - t[static_cast<std::size_t>(a)]) * m.timestamp_ns *
+               1e-6;
+      };
+      *times = GpuStageTimes{ms(0, 1), ms(1, 2), ms(2, 3), ms(3, 4), ms(4, 5), ms(5, 6), ms(6, 7)};
+    }
+  }
+  return GpuStatus::Ok;
+}
+
+GpuStatus VulkanSgm::compute(const ImageView& left, const ImageView& right, SgmBand band, const SgmParams& params,
+                             const DicParams* dic, float* disparity, std::size_t stride, GpuStageTimes* times) {
+  int ticket = 0;
+  const GpuStatus s = submit(left, right, band, params, dic, ticket);
+  if (s != GpuStatus::Ok) return s;
+  return collect(ticket, disparity, stride, times);
+}
+
+GpuStatus VulkanSgm::compute_stages(const ImageView& left, const ImageView& right, SgmBand band,
+                                    const SgmParams& params, const DicParams* dic, SgmStages& st) {
+  Impl& m = *impl_;
+  const auto pixels = static_cast<std::size_t>(m.width) * static_cast<std::size_t>(m.height);
+  st.width = m.width;
+  st.height = m.height;
+  st.band = band;
+  st.disparity.resize(pixels);
+  st.refined.clear();
+  st.spline_left.clear();
+  st.spline_right.clear();
+  std::vector<float> out(pixels);
+  GpuStatus s = compute(left, right, band, params, dic, out.data(), static_cast<std::size_t>(m.width));
+  if (s != GpuStatus::Ok) return s;
+  if (dic) {
+    st.refined = out;
+    st.spline_left.resize(pixels);
+    st.spline_right.resize(pixels);
+    for (auto [buffer, dst] :
+         {std::pair{&m.spline_left, st.spline_left.data()}, std::pair{&m.spline_right, st.spline_right.data()},
+          std::pair{&m.disparity, st.disparity.data()}}) {
+      const VkResult r = m.read_back(*buffer, dst, pixels * 4);
+      if (r != VK_SUCCESS) return m.fail(r);
+    }
+  } else {
+    st.disparity = out;
+  }
+  st.census_left.resize(pixels * 2);
+  st.census_right.resize(pixels * 2);
+  st.sums.resize(pixels * static_cast<std::size_t>(band.num_disparities));
+  st.disparity_left.resize(pixels);
+  st.disparity_right.resize(pixels);
+  for (auto [buffer, dst, bytes] :
+       {std::tuple{&m.census_left, static_cast<void*>(st.census_left.data()), pixels * 8},
+        std::tuple{&m.census_right, static_cast<void*>(st.census_right.data()), pixels * 8},
+        std::tuple{&m.sums, static_cast<void*>(st.sums.data()), st.sums.size() * 2},
+        std::tuple{&m.disp_left, static_cast<void*>(st.disparity_left.data()), pixels * 4},
+        std::tuple{&m.disp_right, static_cast<void*>(st.disparity_right.data()), pixels * 4}}) {
+    const VkResult r = m.read_back(*buffer, dst, bytes);
+    if (r != VK_SUCCESS) return m.fail(r);
+  }
+  return GpuStatus::Ok;
+}
+
+}  // namespace rutd::gpu

@@ -1,0 +1,189 @@
+// The DIC as the GPU engine runs it (pipeline/gpu/: its C++ reference, and the Vulkan engine end to end)
+// against images with KNOWN fractional disparities (rendered as in test_dic_refine.cpp, independently of
+// the code under test), and against the CPU DIC of dic_refine.hpp on the same initial disparities.
+#include <cmath>
+#include <cstdio>
+#include <random>
+#include <vector>
+
+#include <gtest/gtest.h>
+#include <opencv2/core.hpp>
+
+#include "gpu/dic.hpp"
+#include "pipeline/dic_refine.hpp"
+#include "pipeline/disparity.hpp"
+
+namespace rutd {
+namespace {
+
+struct Wave {
+  double kx, ky, phase, amplitude;
+};
+
+// Sum of random plane waves, wavelengths 4..20 px, about 40 grey levels RMS around 128.
+std::vector<Wave> random_texture(unsigned seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> angle(0.0, 2.0 * CV_PI);
+  std::uniform_real_distribution<double> wavelength(4.0, 20.0);
+  std::vector<Wave> waves;
+  const int count = 60;
+  for (int i = 0; i < count; ++i) {
+    const double k = 2.0 * CV_PI / wavelength(rng);
+    const double dir = angle(rng);
+    waves.push_back({k * std::cos(dir), k * std::sin(dir), angle(rng), 40.0 * std::sqrt(2.0 / count)});
+  }
+  return waves;
+}
+
+double sinc(double u) { return std::abs(u) < 1e-12 ? 1.0 : std::sin(u) / u; }
+
+// Pixel (x, y) of a view in which texture coordinate s = scale * x + offset (rows unchanged): the
+// texture integrated over the pixel's unit square, plus noise, quantised.
+cv::Mat render(const std::vector<Wave>& waves, cv::Size size, double scale, double offset, double noise,
+               unsigned seed) {
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> gauss(0.0, noise);
+  cv::Mat image(size, CV_8UC1);
+  for (int y = 0; y < size.height; ++y) {
+    for (int x = 0; x < size.width; ++x) {
+      double v = 128.0;
+      for (const Wave& w : waves) {
+        const double kx = w.kx * scale;  // frequency along the view's x
+        v += w.amplitude * std::sin(kx * x + w.kx * offset + w.ky * y + w.phase) * sinc(kx / 2) * sinc(w.ky / 2);
+      }
+      image.at<std::uint8_t>(y, x) = cv::saturate_cast<std::uint8_t>(v + gauss(rng));
+    }
+  }
+  return image;
+}
+
+// Disparity d(s) = d0 + slope * s at left pixel s. A right pixel x sees s - d(s) = x, i.e.
+// s = (x + d0) / (1 - slope).
+struct Pair {
+  cv::Mat left, right;
+};
+Pair render_pair(double d0, double slope, cv::Size size, unsigned seed, double noise = 0.7) {
+  const auto waves = random_texture(seed);
+  return {render(waves, size, 1.0, 0.0, noise, seed + 1),
+          render(waves, size, 1.0 / (1.0 - slope), d0 / (1.0 - slope), noise, seed + 2)};
+}
+
+struct Error {
+  double mean = 0, rms = 0;
+  int count = 0;
+};
+
+// Error of `disparity` against d0 + slope * x over the valid pixels with x >= x_min.
+Error error_of(const cv::Mat& disparity, double d0, double slope, int x_min) {
+  Error e;
+  for (int y = 0; y < disparity.rows; ++y) {
+    for (int x = x_min; x < disparity.cols; ++x) {
+      const float d = disparity.at<float>(y, x);
+      if (!std::isfinite(d)) continue;
+      const double err = d - (d0 + slope * x);
+      e.mean += err;
+      e.rms += err * err;
+      ++e.count;
+    }
+  }
+  if (e.count > 0) {
+    e.mean /= e.count;
+    e.rms = std::sqrt(e.rms / e.count);
+  }
+  return e;
+}
+
+gpu::ImageView view(const cv::Mat& m) { return gpu::ImageView{m.data, m.cols, m.rows, m.step[0]}; }
+
+// The reference DIC of the GPU on `initial` (CV_32F), as a cv::Mat.
+cv::Mat reference_dic(const Pair& pair, const cv::Mat& initial, const gpu::DicParams& p) {
+  std::vector<float> coef_l, coef_r, in(initial.begin<float>(), initial.end<float>()), out;
+  gpu::bspline_reference(view(pair.left), coef_l);
+  gpu::bspline_reference(view(pair.right), coef_r);
+  gpu::dic_reference(view(pair.left), coef_l, coef_r, in, p, out);
+  return cv::Mat(initial.size(), CV_32FC1, out.data()).clone();
+}
+
+// Largest |a - b| where both are valid, and how many are valid in only one.
+std::pair<double, int> compare(const cv::Mat& a, const cv::Mat& b) {
+  double worst = 0;
+  int one_side = 0;
+  for (int y = 0; y < a.rows; ++y) {
+    for (int x = 0; x < a.cols; ++x) {
+      const float u = a.at<float>(y, x), v = b.at<float>(y, x);
+      if (std::isfinite(u) != std::isfinite(v)) ++one_side;
+      if (std::isfinite(u) && std::isfinite(v)) worst = std::max(worst, static_cast<double>(std::abs(u - v)));
+    }
+  }
+  return {worst, one_side};
+}
+
+const cv::Size kStrip(320, 48);
+
+struct Truth {
+  double d0, slope;
+  unsigned seed;
+};
+const Truth kTruths[] = {{24.1, 0.0, 101}, {24.5, 0.0, 105}, {24.9, 0.0, 109}, {20.3, 0.12, 7}};
+
+TEST(GpuDic, ReferenceRemovesPixelLockingLikeTheCpuDic) {
+  auto sgm = make_cpu_engine(EngineKind::SgmRef);
+  std::printf("   d_true  slope   sgm_bias  sgm_rms   gpu_bias  gpu_rms  refined | cpu_dic_rms  refined  |diff|\n");
+  for (const Truth& t : kTruths) {
+    const Pair pair = render_pair(t.d0, t.slope, kStrip, t.seed);
+    cv::Mat initial;
+    sgm->compute(pair.left, pair.right, {16, 48}, initial);
+    const int x_min = 64;
+    const Error before = error_of(initial, t.d0, t.slope, x_min);
+    gpu::DicParams p;
+    const cv::Mat gpu_dic = reference_dic(pair, initial, p);
+    const Error after = error_of(gpu_dic, t.d0, t.slope, x_min);
+    cv::Mat cpu_dic = initial.clone();
+    DicWorkspace ws;
+    refine_disparity_dic(pair.left, pair.right, cpu_dic, DicConfig{}, ws);
+    const Error cpu = error_of(cpu_dic, t.d0, t.slope, x_min);
+    const auto [diff, one_side] = compare(gpu_dic, cpu_dic);
+    std::printf("  %7.2f  %5.2f  %+9.4f  %7.4f  %+9.4f  %7.4f  %7d | %11.4f  %7d  %.4f (%d on one side)\n", t.d0,
+                t.slope, before.mean, before.rms, after.mean, after.rms, after.count, cpu.rms, cpu.count, diff,
+                one_side);
+    EXPECT_LT(std::abs(after.mean), 0.02) << t.d0;
+    EXPECT_LT(after.rms, 0.05) << t.d0;
+    EXPECT_GT(after.count, 0.9 * before.count) << t.d0;
+    // Same optimum as the CPU DIC (double precision, warm-started): within 1/64 px, nearly the same pixels.
+    EXPECT_LT(diff, 1.0 / 64) << t.d0;
+    EXPECT_LT(one_side, 0.01 * after.count) << t.d0;
+  }
+}
+
+TEST(GpuDic, EngineRefinesOnTheDeviceAsTheReference) {
+  auto engine = make_engine(EngineKind::Gpu);
+  for (const Truth& t : kTruths) {
+    const Pair pair = render_pair(t.d0, t.slope, kStrip, t.seed);
+    DicConfig config;
+    config.row_step = 2;
+    config.row_begin = 4;
+    config.row_end = 44;
+    cv::Mat refined;
+    DicStats stats;
+    if (!engine->compute_refined(pair.left, pair.right, {16, 48}, config, refined, stats))
+      GTEST_SKIP() << "no usable Vulkan device: the GPU engine runs as sgmref, which does not refine";
+    cv::Mat initial;
+    make_cpu_engine(EngineKind::SgmRef)->compute(pair.left, pair.right, {16, 48}, initial);
+    gpu::DicParams p;
+    p.row_step = 2;
+    p.row_begin = 4;
+    p.row_end = 44;
+    const cv::Mat expected = reference_dic(pair, initial, p);
+    const auto [diff, one_side] = compare(refined, expected);
+    const Error e = error_of(refined, t.d0, t.slope, 64);
+    std::printf("d %.2f slope %.2f: %d refined, rms %.4f px; against the reference %.6f px, %d on one side\n", t.d0,
+                t.slope, stats.refined, e.rms, diff, one_side);
+    EXPECT_LT(diff, 1.0 / 64) << t.d0;
+    EXPECT_LE(one_side, stats.refined / 200) << t.d0;
+    EXPECT_GT(stats.refined, 0) << t.d0;
+    EXPECT_LT(e.rms, 0.05) << t.d0;
+  }
+}
+
+}  // namespace
+}  // namespace rutd
