@@ -248,7 +248,9 @@ int run_bench_tables(const BenchTablesOptions& o) {
   std::vector<EngineKind> engines;
   for (const std::string& name : o.engines) {
     const auto e = parse_engine(name);
-    if (!e) throw CLI::ValidationError("--engines", "unknown engine '" + name + "' (bm, sgbm, sgbm3way, hh4, hh)");
+    if (!e)
+      throw CLI::ValidationError("--engines",
+                                 "unknown engine '" + name + "' (bm, sgbm, sgbm3way, hh4, hh, gpu, sgmref)");
     engines.push_back(*e);
   }
   std::vector<cv::Size> sizes;

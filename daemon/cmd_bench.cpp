@@ -183,9 +183,10 @@ void add_bench_command(CLI::App& app, int& exit_code) {
       ->delimiter(',')
       ->check(CLI::Range(1, 3));
   cmd->add_option("--sizes", tables->sizes, "Image sizes of the tables")->delimiter(',')->capture_default_str();
-  cmd->add_option("--engines", *engines, "Engines of --tables and --pair (default: all)")
+  cmd->add_option("--engines", *engines,
+                  "Engines of --tables and --pair (default: the five OpenCV engines; gpu and sgmref on request)")
       ->delimiter(',')
-      ->check(CLI::IsMember({"bm", "sgbm", "sgbm3way", "hh4", "hh"}));
+      ->check(CLI::IsMember({"bm", "sgbm", "sgbm3way", "hh4", "hh", "gpu", "sgmref"}));
   auto* pair_opt =
       cmd->add_option("--pair", *pair_files, "Evaluate every engine on this rectified pair LEFT RIGHT (needs --gt)")
           ->expected(2);
