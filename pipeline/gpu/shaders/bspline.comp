@@ -20,8 +20,9 @@ int mirrored(int k) {
   const int n = pc.width;
   if (n == 1) return 0;
   const int period = 2 * (n - 1);
-  int m = k % period;
-  if (m < 0) m += period;
+  // GLSL leaves % undefined for a negative operand (NVIDIA's result differs from C's), so k is made
+  // non-negative first: the filter reaches 18 columns left of 0, and 32 periods are at least 64.
+  const int m = (k + 32 * period) % period;
   return m < n ? m : period - m;
 }
 

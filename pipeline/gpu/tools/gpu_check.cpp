@@ -38,13 +38,25 @@ long first_difference(const std::vector<T>& a, const std::vector<T>& b) {
   return -1;
 }
 
-// Largest |a - b| / max(1, |b|).
-double max_relative(const std::vector<float>& a, const std::vector<float>& b) {
+// Largest |a - b| / max(1, |b|); `at` receives its element index.
+double max_relative(const std::vector<float>& a, const std::vector<float>& b, std::size_t* at = nullptr) {
   double worst = a.size() == b.size() ? 0.0 : 1e30;
-  for (std::size_t i = 0; i < a.size() && i < b.size(); ++i)
-    worst = std::max(worst,
-                     std::abs(static_cast<double>(a[i]) - b[i]) / std::max(1.0, std::abs(static_cast<double>(b[i]))));
+  for (std::size_t i = 0; i < a.size() && i < b.size(); ++i) {
+    const double r = std::abs(static_cast<double>(a[i]) - b[i]) / std::max(1.0, std::abs(static_cast<double>(b[i])));
+    if (r > worst) {
+      worst = r;
+      if (at) *at = i;
+    }
+  }
   return worst;
+}
+
+// Elements whose relative difference exceeds `limit`.
+long count_over(const std::vector<float>& a, const std::vector<float>& b, double limit) {
+  long n = 0;
+  for (std::size_t i = 0; i < a.size() && i < b.size(); ++i)
+    n += std::abs(static_cast<double>(a[i]) - b[i]) / std::max(1.0, std::abs(static_cast<double>(b[i]))) > limit;
+  return n;
 }
 
 struct Case {
@@ -163,6 +175,15 @@ int main(int argc, char** argv) {
       ok = false;
       std::printf("    DIC: spline %.2g relative, refined %ld, on one side only %ld, largest difference %.4f px\n",
                   spline, refined, one_side, worst);
+      // Where the left spline differs most, and how many coefficients are off: a diagnosis for devices.
+      std::size_t at = 0;
+      const double left = max_relative(dev.spline_left, ref.spline_left, &at);
+      if (left > 1e-3 && at < ref.spline_left.size()) {
+        const auto width = static_cast<std::size_t>(c.width);
+        std::printf("    left spline: worst at x %zu y %zu (device %.4f, reference %.4f), %ld of %zu over 1e-3\n",
+                    at % width, at / width, dev.spline_left[at], ref.spline_left[at],
+                    count_over(dev.spline_left, ref.spline_left, 1e-3), ref.spline_left.size());
+      }
     }
     if (ok)
       std::printf("identical; DIC within %.5f px, %ld of %ld on one side only (%.0f%% valid)\n", worst, one_side,
