@@ -865,11 +865,10 @@ DicStats refine_disparity_dic(const cv::Mat& left_strip, const cv::Mat& right_st
   ws.left_dx.create(std::max(1, layout.table_rows), layout.stride, CV_32FC1);
   ws.right_poly.create(std::max(1, layout.table_rows), 4 * layout.cols, CV_32FC1);
 
-  // Row stripes, or with column windows column stripes (the rows are one window).
-  const int items = !params.column_windows ? row_end - row_begin
-                    : ColumnBlocks(params, row_begin, row_end).count > 1
-                        ? ColumnBlocks(params, row_begin, row_end).count
-                        : disparity.cols;
+  // Row stripes; with column windows, stripes of row blocks, or of columns when the rows are one block.
+  const ColumnBlocks blocks(params, row_begin, row_end);
+  int items = row_end - row_begin;
+  if (params.column_windows) items = blocks.count > 1 ? blocks.count : disparity.cols;
   const int stripes = params.parallel ? std::max(1, std::min(cv::getNumThreads(), items)) : 1;
   if (ws.scratch.size() < static_cast<std::size_t>(stripes)) ws.scratch.resize(static_cast<std::size_t>(stripes));
   for (int s = 0; s < stripes; ++s) {
@@ -890,7 +889,6 @@ DicStats refine_disparity_dic(const cv::Mat& left_strip, const cv::Mat& right_st
       build_table_rows(left_strip, right_strip, 4 * q, std::min(4, layout.table_rows - 4 * q), layout, ws, buffer);
   });
   if (params.column_windows && row_end > row_begin) {
-    const ColumnBlocks blocks(params, row_begin, row_end);
     const auto cols = static_cast<std::size_t>(disparity.cols);
     ws.column_start.resize(cols * blocks.count);
     for (int b = 0; b < blocks.count; ++b)

@@ -3,9 +3,12 @@
 // program as a user would.
 #include <sys/wait.h>
 
+#include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <limits>
+#include <regex>
 #include <sstream>
 #include <stdexcept>
 #include <string>
@@ -63,6 +66,28 @@ inline int run_rutd(const std::string& args, const std::string& stderr_file = {}
   std::string cmd = test::quoted(RUTD_BINARY) + " " + args;
   if (!stderr_file.empty()) cmd += " 2>" + test::quoted(stderr_file);
   return run_shell(cmd);
+}
+
+// Runs `rutd ARGS` (shell-safe) and returns its standard output; `status` receives the exit status, or -1
+// if it did not exit normally. Standard error is discarded.
+inline std::string run_rutd_output(const std::string& args, int& status) {
+  std::string out;
+  status = -1;
+  FILE* p = popen((test::quoted(RUTD_BINARY) + " " + args + " 2>/dev/null").c_str(), "r");
+  if (!p) return out;
+  char buf[4096];
+  while (std::fgets(buf, sizeof buf, p)) out += buf;
+  const int s = pclose(p);
+  status = WIFEXITED(s) ? WEXITSTATUS(s) : -1;
+  return out;
+}
+
+// The number of "key":VALUE in a one-line JSON object; NaN when the key is missing or null.
+inline double json_number(const std::string& line, const std::string& key) {
+  std::smatch m;
+  return std::regex_search(line, m, std::regex("\"" + key + "\":(-?[0-9.eE+-]+|null)")) && m[1] != "null"
+             ? std::stod(m[1])
+             : std::numeric_limits<double>::quiet_NaN();
 }
 
 }  // namespace rutd::test

@@ -22,23 +22,6 @@ namespace {
 
 const std::string kCone = std::string(RUTD_TEST_DATA_DIR) + "/middlebury/cone/";
 
-std::string run_capture(const std::string& args, int& status) {
-  std::string out;
-  FILE* p = popen((test::quoted(RUTD_BINARY) + " " + args + " 2>/dev/null").c_str(), "r");
-  if (!p) return out;
-  char buf[4096];
-  while (std::fgets(buf, sizeof buf, p)) out += buf;
-  const int s = pclose(p);
-  status = WIFEXITED(s) ? WEXITSTATUS(s) : -1;
-  return out;
-}
-
-double number(const std::string& line, const std::string& key) {
-  const std::regex re("\"" + key + "\":(-?[0-9.eE+-]+)");
-  std::smatch m;
-  if (!std::regex_search(line, m, re)) return NAN;
-  return std::stod(m[1]);
-}
 std::string text(const std::string& line, const std::string& key) {
   const std::regex re("\"" + key + "\":\"?([a-z0-9]+)\"?");
   std::smatch m;
@@ -71,9 +54,9 @@ Expected expected(const cv::Mat& d, const cv::Mat& gt8, double scale) {
 
 TEST(BenchPair, MatchesAnIndependentComputationForTwoEngines) {
   int status = -1;
-  const std::string out = run_capture("bench --pair " + kCone + "im2.png " + kCone + "im6.png --gt " + kCone +
-                                          "disp2.png --gt-scale 4 --engines bm,sgbm3way --json",
-                                      status);
+  const std::string out = test::run_rutd_output("bench --pair " + kCone + "im2.png " + kCone + "im6.png --gt " + kCone +
+                                                    "disp2.png --gt-scale 4 --engines bm,sgbm3way --json",
+                                                status);
   ASSERT_EQ(status, 0) << out;
   const cv::Mat left = cv::imread(kCone + "im2.png", cv::IMREAD_GRAYSCALE);
   const cv::Mat right = cv::imread(kCone + "im6.png", cv::IMREAD_GRAYSCALE);
@@ -87,7 +70,8 @@ TEST(BenchPair, MatchesAnIndependentComputationForTwoEngines) {
     ++rows;
     const std::string engine = text(line, "engine");
     const bool dic = text(line, "dic") == "true";
-    const int dmin = static_cast<int>(number(line, "dmin")), dmax = static_cast<int>(number(line, "dmax"));
+    const int dmin = static_cast<int>(test::json_number(line, "dmin")),
+              dmax = static_cast<int>(test::json_number(line, "dmax"));
     // The default band covers the ground truth's range.
     double lo = 0, hi = 0;
     cv::minMaxLoc(gt, &lo, &hi, nullptr, nullptr, gt != 0);
@@ -101,12 +85,12 @@ TEST(BenchPair, MatchesAnIndependentComputationForTwoEngines) {
     }
     const Expected e = expected(d, gt, 4.0);
     const std::string what = engine + (dic ? " + DIC" : "");
-    EXPECT_NEAR(number(line, "bad_0_5"), e.bad05, 0.01) << what;
-    EXPECT_NEAR(number(line, "bad_1_0"), e.bad1, 0.01) << what;
-    EXPECT_NEAR(number(line, "bad_2_0"), e.bad2, 0.01) << what;
-    EXPECT_NEAR(number(line, "mae_px"), e.mae, 1e-4) << what;
-    EXPECT_NEAR(number(line, "coverage"), e.coverage, 1e-4) << what;
-    EXPECT_GT(number(line, "ms"), 0.0) << what;
+    EXPECT_NEAR(test::json_number(line, "bad_0_5"), e.bad05, 0.01) << what;
+    EXPECT_NEAR(test::json_number(line, "bad_1_0"), e.bad1, 0.01) << what;
+    EXPECT_NEAR(test::json_number(line, "bad_2_0"), e.bad2, 0.01) << what;
+    EXPECT_NEAR(test::json_number(line, "mae_px"), e.mae, 1e-4) << what;
+    EXPECT_NEAR(test::json_number(line, "coverage"), e.coverage, 1e-4) << what;
+    EXPECT_GT(test::json_number(line, "ms"), 0.0) << what;
     // Sanity against the figures of test_middlebury: these are good matchers on cone.
     EXPECT_LT(e.bad1, 10.0) << what;
     EXPECT_GT(e.coverage, 0.6) << what;
@@ -116,9 +100,9 @@ TEST(BenchPair, MatchesAnIndependentComputationForTwoEngines) {
 
 TEST(BenchPair, ExplicitRangeAndTextTable) {
   int status = -1;
-  const std::string out = run_capture("bench --pair " + kCone + "im2.png " + kCone + "im6.png --gt " + kCone +
-                                          "disp2.png --gt-scale 4 --dmin 0 --dmax 59 --engines bm",
-                                      status);
+  const std::string out = test::run_rutd_output("bench --pair " + kCone + "im2.png " + kCone + "im6.png --gt " + kCone +
+                                                    "disp2.png --gt-scale 4 --dmin 0 --dmax 59 --engines bm",
+                                                status);
   ASSERT_EQ(status, 0) << out;
   EXPECT_NE(out.find("disparities searched 0..63 px"), std::string::npos) << out;
   EXPECT_NE(out.find("bad-0.5"), std::string::npos) << out;

@@ -14,29 +14,12 @@
 namespace rutd {
 namespace {
 
-std::string run_capture(const std::string& args, int& status) {
-  std::string out;
-  FILE* p = popen((test::quoted(RUTD_BINARY) + " " + args + " 2>/dev/null").c_str(), "r");
-  if (!p) return out;
-  char buf[4096];
-  while (std::fgets(buf, sizeof buf, p)) out += buf;
-  const int s = pclose(p);
-  status = WIFEXITED(s) ? WEXITSTATUS(s) : -1;
-  return out;
-}
-
-double number(const std::string& line, const std::string& key) {
-  std::smatch m;
-  return std::regex_search(line, m, std::regex("\"" + key + "\":(-?[0-9.eE+-]+|null)")) && m[1] != "null"
-             ? std::stod(m[1])
-             : NAN;
-}
 bool has(const std::string& line, const std::string& fragment) { return line.find(fragment) != std::string::npos; }
 
 TEST(BenchTables, JsonRowsOfAllThreeTables) {
   int status = -1;
   const std::string out =
-      run_capture("bench --tables 1,2,3 --json --seconds 0.5 --sizes 320x240 --engines sgbm3way", status);
+      test::run_rutd_output("bench --tables 1,2,3 --json --seconds 0.5 --sizes 320x240 --engines sgbm3way", status);
   ASSERT_EQ(status, 0) << out;
   std::vector<std::string> t1, t2, t3;
   std::istringstream in(out);
@@ -49,35 +32,37 @@ TEST(BenchTables, JsonRowsOfAllThreeTables) {
   ASSERT_EQ(t1.size(), 4u) << out;  // strip, full x DIC off, on
   for (const auto& l : t1) {
     EXPECT_TRUE(has(l, "\"engine\":\"sgbm3way\"") && has(l, "\"width\":320") && has(l, "\"height\":240")) << l;
-    EXPECT_GT(number(l, "hz"), 0.0) << l;
-    EXPECT_NEAR(number(l, "hz") * number(l, "ms"), 1000.0, 1.0) << l;
+    EXPECT_GT(test::json_number(l, "hz"), 0.0) << l;
+    EXPECT_NEAR(test::json_number(l, "hz") * test::json_number(l, "ms"), 1000.0, 1.0) << l;
     // Rows rectified and matched: every row in full mode; the 24-row strip and its matching margin otherwise.
-    if (has(l, "\"mode\":\"full\"")) EXPECT_EQ(number(l, "rows"), 240) << l;
-    else EXPECT_TRUE(number(l, "rows") >= 24 && number(l, "rows") <= 64) << l;
+    if (has(l, "\"mode\":\"full\"")) EXPECT_EQ(test::json_number(l, "rows"), 240) << l;
+    else EXPECT_TRUE(test::json_number(l, "rows") >= 24 && test::json_number(l, "rows") <= 64) << l;
   }
   ASSERT_EQ(t2.size(), 2u) << out;
   for (const auto& l : t2) {
     // The measured strip against the exact surface: unbiased to well under a millimetre.
-    EXPECT_LT(std::abs(number(l, "mean_mm")), 1.0) << l;
-    EXPECT_LT(number(l, "std_mm"), 5.0) << l;
-    EXPECT_GT(number(l, "points"), 1000) << l;
+    EXPECT_LT(std::abs(test::json_number(l, "mean_mm")), 1.0) << l;
+    EXPECT_LT(test::json_number(l, "std_mm"), 5.0) << l;
+    EXPECT_GT(test::json_number(l, "points"), 1000) << l;
   }
   ASSERT_EQ(t3.size(), 8u) << out;  // 30, 40, 50, 60 mm x DIC off, on
   double truths[4] = {30, 40, 50, 60};
   for (std::size_t i = 0; i < t3.size(); ++i) {
     const std::string& l = t3[i];
-    EXPECT_NEAR(number(l, "truth_mm"), truths[i / 2], 0.5) << l;
-    EXPECT_NEAR(number(l, "error_mm"), number(l, "depth_mm") - number(l, "truth_mm"), 2e-4) << l;
+    EXPECT_NEAR(test::json_number(l, "truth_mm"), truths[i / 2], 0.5) << l;
+    EXPECT_NEAR(test::json_number(l, "error_mm"), test::json_number(l, "depth_mm") - test::json_number(l, "truth_mm"),
+                2e-4)
+        << l;
     if (has(l, "\"dic\":true")) {
       EXPECT_TRUE(has(l, "\"status\":\"OK\"")) << l;
-      EXPECT_LT(std::abs(number(l, "error_mm")), 1.5) << l;
+      EXPECT_LT(std::abs(test::json_number(l, "error_mm")), 1.5) << l;
     }
   }
 }
 
 TEST(BenchTables, TextTablesAndBadTableNumber) {
   int status = -1;
-  const std::string out = run_capture("bench --tables 3 --sizes 200x160 --engines bm", status);
+  const std::string out = test::run_rutd_output("bench --tables 3 --sizes 200x160 --engines bm", status);
   ASSERT_EQ(status, 0) << out;
   EXPECT_TRUE(has(out, "Table 3: rut depth measured")) << out;
   EXPECT_FALSE(has(out, "Table 1")) << out;

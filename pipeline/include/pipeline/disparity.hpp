@@ -122,7 +122,6 @@ class BandTracker {
   // at least kEdgePx inside it and the valid share is at least 0.8 of the share on the band's first
   // frame (and at least 0.25 overall).
   void update(DisparityBand band, bool estimated, const cv::Mat& disparity, int row_begin, int row_end);
-  void reset() { frames_ = 0; }
 
  private:
   static constexpr double kEdgePx = 2.0;
