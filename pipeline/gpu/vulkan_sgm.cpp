@@ -17,6 +17,9 @@ namespace {
 const std::uint32_t kCensusSpv[] =
 #include "census.comp.inc"
     ;
+const std::uint32_t kCostSpv[] =
+#include "cost.comp.inc"
+    ;
 const std::uint32_t kAggregateSpv[] =
 #include "aggregate.comp.inc"
     ;
@@ -130,7 +133,10 @@ GpuDeviceInfo describe(VkPhysicalDevice pd, int index) {
   info.type = type_name(props.properties.deviceType);
   info.subgroup_size = sub.subgroupSize;
   const VkSubgroupFeatureFlags need = VK_SUBGROUP_FEATURE_BASIC_BIT | VK_SUBGROUP_FEATURE_ARITHMETIC_BIT;
+  VkPhysicalDeviceFeatures features;
+  vkGetPhysicalDeviceFeatures(pd, &features);
   info.usable = props.properties.apiVersion >= VK_API_VERSION_1_1 && (sub.supportedOperations & need) == need &&
+                features.shaderStorageBufferArrayDynamicIndexing &&
                 (sub.supportedStages & VK_SHADER_STAGE_COMPUTE_BIT) != 0;
   return info;
 }
@@ -154,24 +160,34 @@ struct Kernel {
   VkDescriptorSet set = VK_NULL_HANDLE;
 };
 
+// words: 32-bit words of byte costs per pixel and direction (aggregate.comp).
+struct CostPush {
+  std::int32_t width, height, min_disparity, num_disparities, words;
+};
 struct AggregatePush {
-  std::int32_t width, height, min_disparity, num_disparities, p1, p2;
+  std::int32_t width, height, num_disparities, p1, p2, words;
 };
 struct WtaPush {
-  std::int32_t width, height, min_disparity, num_disparities, uniqueness;
+  std::int32_t width, height, min_disparity, num_disparities, uniqueness, paths, words;
 };
 struct LrMedianPush {
-  std::int32_t width, height, max_diff, median;
+  std::int32_t width, height, max_diff, median, min_disparity;
 };
 struct CensusPush {
   std::int32_t width, height, words_per_row;
 };
 struct DicPush {
-  std::int32_t width, height, words_per_row, h, hh, max_iterations, step, row_step, row_begin, row_end, first_order;
+  std::int32_t width, height, words_per_row, h, hh, max_iterations, step, row_step, first_row, columns, first_order;
   float tolerance, max_shift, max_gradient, min_gradient, min_zncc, max_sigma;
 };
 
 std::uint32_t groups(int n, int size) { return static_cast<std::uint32_t>((n + size - 1) / size); }
+
+constexpr int kPathsMax = 8;
+constexpr int kWtaSegment = 16;  // pixels per workgroup of wta.comp
+constexpr std::uint32_t kNoMatch = 0xFFFFFFFFu;  // right_key: no disparity
+constexpr std::uint32_t kNanBits = 0x7FC00000u;  // a quiet NaN, float bits
+int cost_words(int disparities) { return (disparities + 3) / 4; }
 
 }  // namespace
 
@@ -215,8 +231,12 @@ struct VulkanSgm::Impl {
   VkCommandPool pool = VK_NULL_HANDLE;
   VkDescriptorPool descriptors = VK_NULL_HANDLE;
   VkQueryPool queries = VK_NULL_HANDLE;
-  // Device buffers, shared by both slots (their work is serialised on the one queue).
-  Buffer image_left, image_right, census_left, census_right, sums, disp_left, disp_right, disparity;
+  std::uint32_t subgroup_size = 1;
+  // Device buffers, shared by both slots (their work is serialised on the one queue). costs: every
+  // direction's byte path costs (aggregate.comp); right_key: the right view as wta.comp's keys.
+  // match_cost: cost.comp's byte costs; costs: aggregate.comp's, one buffer per direction.
+  Buffer image_left, image_right, census_left, census_right, match_cost, disp_left, right_key, disparity;
+  std::array<Buffer, kPathsMax> costs;
   Buffer spline_left, spline_right, refined;  // DIC
   struct Slot {
     Buffer upload;    // host-visible: left then right image, packed words
@@ -227,20 +247,21 @@ struct VulkanSgm::Impl {
   };
   std::array<Slot, kSlots> slots;
   int next_slot = 0;
-  Kernel census, aggregate, wta, lr_median, bspline, dic;
+  Kernel census, cost, aggregate, wta, lr_median, bspline, dic;
   bool lost = false;
 
   ~Impl() {
     if (device) {
       vkDeviceWaitIdle(device);
-      for (Kernel* k : {&census, &aggregate, &wta, &lr_median, &bspline, &dic}) {
+      for (Kernel* k : {&census, &cost, &aggregate, &wta, &lr_median, &bspline, &dic}) {
         vkDestroyPipeline(device, k->pipeline, nullptr);
         vkDestroyPipelineLayout(device, k->layout, nullptr);
         vkDestroyDescriptorSetLayout(device, k->set_layout, nullptr);
       }
-      for (Buffer* b :
-           {&image_left, &image_right, &census_left, &census_right, &sums, &disp_left, &disp_right, &disparity})
+      for (Buffer* b : {&image_left, &image_right, &census_left, &census_right, &match_cost, &disp_left, &right_key,
+                        &disparity, &spline_left, &spline_right, &refined})
         destroy(*b);
+      for (Buffer& b : costs) destroy(b);
       for (Slot& s : slots) {
         destroy(s.upload);
         destroy(s.download);
@@ -322,6 +343,9 @@ struct VulkanSgm::Impl {
     auto di = info_struct<VkDeviceCreateInfo>(VK_STRUCTURE_TYPE_DEVICE_CREATE_INFO);
     di.queueCreateInfoCount = 1;
     di.pQueueCreateInfos = &qi;
+    VkPhysicalDeviceFeatures features{};
+    features.shaderStorageBufferArrayDynamicIndexing = VK_TRUE;  // the directions' cost volumes (describe())
+    di.pEnabledFeatures = &features;
     check(vkCreateDevice(physical, &di, nullptr, &device), "vkCreateDevice");
     vkGetDeviceQueue(device, family, 0, &queue);
     vkGetPhysicalDeviceMemoryProperties(physical, &memory);
@@ -365,12 +389,15 @@ struct VulkanSgm::Impl {
     return b;
   }
 
+  // bindings[i]: the buffers of binding i, an array of descriptors where there are several.
+  // spec0: the value of specialization constant 0, where the shader has one.
   Kernel make_kernel(const std::uint32_t* spv, std::size_t bytes, std::uint32_t push_bytes,
-                     std::vector<const Buffer*> bindings) {
+                     const std::vector<std::vector<const Buffer*>>& bindings, const std::int32_t* spec0 = nullptr) {
     Kernel k;
     std::vector<VkDescriptorSetLayoutBinding> lb(bindings.size());
     for (std::size_t i = 0; i < lb.size(); ++i) {
-      lb[i] = VkDescriptorSetLayoutBinding{static_cast<std::uint32_t>(i), VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1,
+      lb[i] = VkDescriptorSetLayoutBinding{static_cast<std::uint32_t>(i), VK_DESCRIPTOR_TYPE_STORAGE_BUFFER,
+                                           static_cast<std::uint32_t>(bindings[i].size()),
                                            VK_SHADER_STAGE_COMPUTE_BIT, nullptr};
     }
     auto li = info_struct<VkDescriptorSetLayoutCreateInfo>(VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO);
@@ -394,6 +421,9 @@ struct VulkanSgm::Impl {
     ci.stage.stage = VK_SHADER_STAGE_COMPUTE_BIT;
     ci.stage.module = module;
     ci.stage.pName = "main";
+    const VkSpecializationMapEntry entry{0, 0, sizeof(std::int32_t)};
+    const VkSpecializationInfo spec{1, &entry, sizeof(std::int32_t), spec0};
+    if (spec0) ci.stage.pSpecializationInfo = &spec;
     ci.layout = k.layout;
     const VkResult r = vkCreateComputePipelines(device, VK_NULL_HANDLE, 1, &ci, nullptr, &k.pipeline);
     vkDestroyShaderModule(device, module, nullptr);
@@ -403,16 +433,16 @@ struct VulkanSgm::Impl {
     ai.descriptorSetCount = 1;
     ai.pSetLayouts = &k.set_layout;
     check(vkAllocateDescriptorSets(device, &ai, &k.set), "vkAllocateDescriptorSets");
-    std::vector<VkDescriptorBufferInfo> bi(bindings.size());
+    std::vector<std::vector<VkDescriptorBufferInfo>> bi(bindings.size());
     std::vector<VkWriteDescriptorSet> w(bindings.size());
     for (std::size_t i = 0; i < bindings.size(); ++i) {
-      bi[i] = VkDescriptorBufferInfo{bindings[i]->buffer, 0, VK_WHOLE_SIZE};
+      for (const Buffer* b : bindings[i]) bi[i].push_back(VkDescriptorBufferInfo{b->buffer, 0, VK_WHOLE_SIZE});
       w[i] = info_struct<VkWriteDescriptorSet>(VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET);
       w[i].dstSet = k.set;
       w[i].dstBinding = static_cast<std::uint32_t>(i);
-      w[i].descriptorCount = 1;
+      w[i].descriptorCount = static_cast<std::uint32_t>(bi[i].size());
       w[i].descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
-      w[i].pBufferInfo = &bi[i];
+      w[i].pBufferInfo = bi[i].data();
     }
     vkUpdateDescriptorSets(device, static_cast<std::uint32_t>(w.size()), w.data(), 0, nullptr);
     return k;
@@ -428,9 +458,22 @@ struct VulkanSgm::Impl {
     image_right = make_buffer(image_bytes, storage, false);
     census_left = make_buffer(pixels * 8, storage, false);
     census_right = make_buffer(pixels * 8, storage, false);
-    sums = make_buffer(pixels * static_cast<VkDeviceSize>(max_disparities) * 2, storage, false);
+    // One volume per direction, so that each stays within the device's range for one storage buffer.
+    const VkDeviceSize cost_bytes = pixels * static_cast<VkDeviceSize>(cost_words(max_disparities)) * 4;
+    VkPhysicalDeviceProperties props;
+    vkGetPhysicalDeviceProperties(physical, &props);
+    if (cost_bytes > props.limits.maxStorageBufferRange)
+      throw GpuError("the path costs of " + std::to_string(width) + "x" + std::to_string(height) + " px and " +
+                     std::to_string(max_disparities) + " disparities need " + std::to_string(cost_bytes) +
+                     " bytes a direction, over maxStorageBufferRange " +
+                     std::to_string(props.limits.maxStorageBufferRange));
+    subgroup_size = std::max<std::uint32_t>(info.subgroup_size, 1);
+    match_cost = make_buffer(cost_bytes, storage, false);
+    for (Buffer& b : costs) b = make_buffer(cost_bytes, storage, false);
+    std::vector<const Buffer*> cost_set;
+    for (const Buffer& b : costs) cost_set.push_back(&b);
     disp_left = make_buffer(pixels * 4, storage, false);
-    disp_right = make_buffer(pixels * 4, storage, false);
+    right_key = make_buffer(pixels * 4, storage, false);
     disparity = make_buffer(pixels * 4, storage, false);
     spline_left = make_buffer(pixels * 4, storage, false);
     spline_right = make_buffer(pixels * 4, storage, false);
@@ -457,23 +500,25 @@ struct VulkanSgm::Impl {
       qi.queryCount = kTimestamps * kSlots;
       check(vkCreateQueryPool(device, &qi, nullptr, &queries), "vkCreateQueryPool");
     }
-    const VkDescriptorPoolSize size{VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 32};
+    const VkDescriptorPoolSize size{VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 48};
     auto dpi = info_struct<VkDescriptorPoolCreateInfo>(VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO);
-    dpi.maxSets = 6;
+    dpi.maxSets = 7;
     dpi.poolSizeCount = 1;
     dpi.pPoolSizes = &size;
     check(vkCreateDescriptorPool(device, &dpi, nullptr, &descriptors), "vkCreateDescriptorPool");
     census = make_kernel(kCensusSpv, sizeof kCensusSpv, sizeof(CensusPush),
-                         {&image_left, &image_right, &census_left, &census_right});
-    aggregate =
-        make_kernel(kAggregateSpv, sizeof kAggregateSpv, sizeof(AggregatePush), {&census_left, &census_right, &sums});
-    wta = make_kernel(kWtaSpv, sizeof kWtaSpv, sizeof(WtaPush), {&sums, &disp_left, &disp_right});
-    lr_median =
-        make_kernel(kLrMedianSpv, sizeof kLrMedianSpv, sizeof(LrMedianPush), {&disp_left, &disp_right, &disparity});
+                         {{&image_left}, {&image_right}, {&census_left}, {&census_right}});
+    cost = make_kernel(kCostSpv, sizeof kCostSpv, sizeof(CostPush), {{&census_left}, {&census_right}, {&match_cost}});
+    const std::int32_t groups_of_128 = (max_disparities + 127) / 128;  // aggregate.comp's kGroups
+    aggregate = make_kernel(kAggregateSpv, sizeof kAggregateSpv, sizeof(AggregatePush), {{&match_cost}, cost_set},
+                            &groups_of_128);
+    wta = make_kernel(kWtaSpv, sizeof kWtaSpv, sizeof(WtaPush), {cost_set, {&disp_left}, {&right_key}});
+    lr_median = make_kernel(kLrMedianSpv, sizeof kLrMedianSpv, sizeof(LrMedianPush),
+                            {{&disp_left}, {&right_key}, {&disparity}});
     bspline = make_kernel(kBsplineSpv, sizeof kBsplineSpv, sizeof(CensusPush),
-                          {&image_left, &image_right, &spline_left, &spline_right});
+                          {{&image_left}, {&image_right}, {&spline_left}, {&spline_right}});
     dic = make_kernel(kDicSpv, sizeof kDicSpv, sizeof(DicPush),
-                      {&image_left, &spline_left, &spline_right, &disparity, &refined});
+                      {{&image_left}, {&spline_left}, {&spline_right}, {&disparity}, {&refined}});
   }
 
   void barrier(VkCommandBuffer cb, VkPipelineStageFlags src, VkPipelineStageFlags dst) {
@@ -518,6 +563,9 @@ struct VulkanSgm::Impl {
     vkCmdCopyBuffer(cb, up.buffer, image_left.buffer, 1, &copy);
     copy.srcOffset = half;
     vkCmdCopyBuffer(cb, up.buffer, image_right.buffer, 1, &copy);
+    // wta.comp takes the minimum key per right pixel with atomics; lr_median.comp reads none as no match.
+    vkCmdFillBuffer(cb, right_key.buffer, 0, VK_WHOLE_SIZE, kNoMatch);
+    if (dic_params) vkCmdFillBuffer(cb, refined.buffer, 0, VK_WHOLE_SIZE, kNanBits);  // pixels not refined
     barrier(cb, transfer, compute);
     stamp(cb, slot, 1);
     dispatch(cb, census, CensusPush{width, height, words_per_row}, groups(width, 16), groups(height, 8), 2);
@@ -526,32 +574,40 @@ struct VulkanSgm::Impl {
                static_cast<std::uint32_t>(height), 2);
     barrier(cb, compute, compute);
     stamp(cb, slot, 2);
-    // The directions add into the sums concurrently (aggregate.comp): zero them first.
-    const VkDeviceSize sum_bytes = static_cast<VkDeviceSize>(width) * static_cast<VkDeviceSize>(height) *
-                                   static_cast<VkDeviceSize>(band.num_disparities) * 2;
-    vkCmdFillBuffer(cb, sums.buffer, 0, sum_bytes, 0);
-    barrier(cb, transfer, compute);
     const int lines = params.paths == 2 ? height : params.paths == 4 ? std::max(width, height) : width + height - 1;
-    dispatch(cb, aggregate,
-             AggregatePush{width, height, band.min_disparity, band.num_disparities, params.p1, params.p2},
+    const int words = cost_words(band.num_disparities);
+    dispatch(cb, cost, CostPush{width, height, band.min_disparity, band.num_disparities, words},
+             groups(width * words, 64), static_cast<std::uint32_t>(height), 1);
+    barrier(cb, compute, compute);
+    dispatch(cb, aggregate, AggregatePush{width, height, band.num_disparities, params.p1, params.p2, words},
              static_cast<std::uint32_t>(lines), static_cast<std::uint32_t>(params.paths), 1);
     barrier(cb, compute, compute);
     stamp(cb, slot, 3);
-    dispatch(cb, wta, WtaPush{width, height, band.min_disparity, band.num_disparities, params.uniqueness},
-             groups(width, 64), static_cast<std::uint32_t>(height), 1);
+    dispatch(cb, wta,
+             WtaPush{width, height, band.min_disparity, band.num_disparities, params.uniqueness, params.paths, words},
+             groups(width, kWtaSegment), static_cast<std::uint32_t>(height), 1);
     barrier(cb, compute, compute);
     stamp(cb, slot, 4);
-    dispatch(cb, lr_median, LrMedianPush{width, height, params.lr_max_diff, params.median ? 1 : 0}, groups(width, 64),
-             static_cast<std::uint32_t>(height), 1);
+    dispatch(cb, lr_median,
+             LrMedianPush{width, height, params.lr_max_diff, params.median ? 1 : 0, band.min_disparity},
+             groups(width, 64), static_cast<std::uint32_t>(height), 1);
     barrier(cb, compute, compute | transfer);
     stamp(cb, slot, 5);
     if (dic_params) {
+      // The grid: columns x % step == 0, rows y % row_step == 0 in [row_begin, row_end). One subgroup per
+      // pixel (dic.comp), at most 64 / subgroup_size of them per workgroup; a subgroup smaller than the
+      // reported size only means fewer workgroups would have done.
       const DicParams& d = *dic_params;
+      const int begin = std::max(d.row_begin, 0), end = std::min(d.row_end, height);
+      const int first_row = (begin + d.row_step - 1) / d.row_step * d.row_step;
+      const int rows = first_row < end ? (end - 1 - first_row) / d.row_step + 1 : 0;
+      const int columns = (width + d.step - 1) / d.step;
       const DicPush push{
-          width,          height,         words_per_row,  d.half_window, d.half_height,         d.max_iterations,
-          d.step,         d.row_step,     d.row_begin,    d.row_end,     d.first_order ? 1 : 0, d.tolerance_px,
-          d.max_shift_px, d.max_gradient, d.min_gradient, d.min_zncc,    d.max_sigma_px};
-      dispatch(cb, dic, push, groups(width, 64), static_cast<std::uint32_t>(height), 1);
+          width,          height,         words_per_row, d.half_window, d.half_height,         d.max_iterations,
+          d.step,         d.row_step,     first_row,     columns,       d.first_order ? 1 : 0, d.tolerance_px,
+          d.max_shift_px, d.max_gradient, d.min_gradient, d.min_zncc,   d.max_sigma_px};
+      const int per_group = std::max(1, 64 / static_cast<int>(subgroup_size));
+      if (rows > 0) dispatch(cb, dic, push, groups(columns, per_group), static_cast<std::uint32_t>(rows), 1);
       barrier(cb, compute, transfer);
     }
     stamp(cb, slot, 6);
@@ -732,18 +788,31 @@ GpuStatus VulkanSgm::compute_stages(const ImageView& left, const ImageView& righ
   }
   st.census_left.resize(pixels * 2);
   st.census_right.resize(pixels * 2);
-  st.sums.resize(pixels * static_cast<std::size_t>(band.num_disparities));
   st.disparity_left.resize(pixels);
-  st.disparity_right.resize(pixels);
+  const auto nd = static_cast<std::size_t>(band.num_disparities);
+  const auto words = static_cast<std::size_t>(cost_words(band.num_disparities));
+  std::vector<std::uint8_t> costs(pixels * words * 4 * static_cast<std::size_t>(params.paths));
+  std::vector<std::uint32_t> keys(pixels);
+  for (std::size_t dir = 0; dir < static_cast<std::size_t>(params.paths); ++dir) {
+    const VkResult r = m.read_back(m.costs[dir], costs.data() + dir * pixels * words * 4, pixels * words * 4);
+    if (r != VK_SUCCESS) return m.fail(r);
+  }
   for (auto [buffer, dst, bytes] :
        {std::tuple{&m.census_left, static_cast<void*>(st.census_left.data()), pixels * 8},
         std::tuple{&m.census_right, static_cast<void*>(st.census_right.data()), pixels * 8},
-        std::tuple{&m.sums, static_cast<void*>(st.sums.data()), st.sums.size() * 2},
         std::tuple{&m.disp_left, static_cast<void*>(st.disparity_left.data()), pixels * 4},
-        std::tuple{&m.disp_right, static_cast<void*>(st.disparity_right.data()), pixels * 4}}) {
+        std::tuple{&m.right_key, static_cast<void*>(keys.data()), pixels * 4}}) {
     const VkResult r = m.read_back(*buffer, dst, bytes);
     if (r != VK_SUCCESS) return m.fail(r);
   }
+  // The sums the reference keeps: every direction's byte costs added (as wta.comp does in shared memory).
+  st.sums.assign(pixels * nd, 0);
+  for (std::size_t dir = 0; dir < static_cast<std::size_t>(params.paths); ++dir)
+    for (std::size_t p = 0; p < pixels; ++p)
+      for (std::size_t d = 0; d < nd; ++d) st.sums[p * nd + d] += costs[(dir * pixels + p) * words * 4 + d];
+  st.disparity_right.resize(pixels);
+  for (std::size_t p = 0; p < pixels; ++p)
+    st.disparity_right[p] = keys[p] == kNoMatch ? -1 : band.min_disparity + static_cast<int>(keys[p] & 511u);
   return GpuStatus::Ok;
 }
 

@@ -1,10 +1,16 @@
 #version 450
-// Sub-pixel refinement by digital image correlation, one invocation per pixel of the grid (x % step == 0,
+// Sub-pixel refinement by digital image correlation, one subgroup per pixel of the grid (x % step == 0,
 // y % row_step == 0, rows [row_begin, row_end)) with a valid disparity d0: inverse-compositional
 // Gauss-Newton on the zero-normalised SSD over the first-order warp x_right = x + c + a xi + b eta
 // (start a = 1, b = 0, c = -d0), the right image sampled by its cubic B-spline along rows. The maths and
-// the rejections are pipeline/dic_refine.hpp's (DicConfig), in float, in the order of dic_reference.cpp;
-// no warm start from the neighbour (pixels are independent here). Other pixels become NaN.
+// the rejections are pipeline/dic_refine.hpp's (DicConfig), in float, as dic_reference.cpp; no warm start
+// from the neighbour (pixels are independent here). The subgroup's invocations take the window's pixels
+// in turn and every sum is a subgroup sum, so all invocations hold the same totals and take the same
+// branches; the sums' order differs from the reference's, which agrees to float rounding. Works for any
+// subgroup size: each subgroup walks the grid's columns with the stride of the whole dispatch.
+// Workgroup (x, grid row); the host fills `refined` with NaN first, so pixels not refined stay NaN.
+#extension GL_KHR_shader_subgroup_basic : require
+#extension GL_KHR_shader_subgroup_arithmetic : require
 layout(local_size_x = 64) in;
 layout(std430, binding = 0) readonly buffer Left { uint left_px[]; };
 layout(std430, binding = 1) readonly buffer CoefL { float coef_l[]; };
@@ -12,7 +18,7 @@ layout(std430, binding = 2) readonly buffer CoefR { float coef_r[]; };
 layout(std430, binding = 3) readonly buffer Initial { float initial[]; };
 layout(std430, binding = 4) writeonly buffer Refined { float refined[]; };
 layout(push_constant) uniform Params {
-  int width, height, words_per_row, h, hh, max_iterations, step, row_step, row_begin, row_end, first_order;
+  int width, height, words_per_row, h, hh, max_iterations, step, row_step, first_row, columns, first_order;
   float tolerance, max_shift, max_gradient, min_gradient, min_zncc, max_sigma;
 } pc;
 #include "common.glsl"
@@ -34,37 +40,42 @@ float sample_right(int r, float X) {
   return g;
 }
 
-void main() {
-  const int x = int(gl_GlobalInvocationID.x), y = int(gl_GlobalInvocationID.y);
-  if (x >= pc.width || y >= pc.height) return;
+float left_grey(int cx, int r) { return float(pixel_at(left_px[r * pc.words_per_row + (cx >> 2)], cx)) - 128.0; }
+float left_dx(int cx, int r) {
+  precise const float fx = 0.5 * (coef_l[r * pc.width + mirror(cx + 1)] - coef_l[r * pc.width + mirror(cx - 1)]);
+  return fx;
+}
+
+void refine(int x, int y) {
   const int i = y * pc.width + x;
-  const float nan = uintBitsToFloat(0x7FC00000u);
   const float d0 = initial[i];
-  refined[i] = nan;
-  if (y < pc.row_begin || y >= pc.row_end || x % pc.step != 0 || y % pc.row_step != 0 || isnan(d0) || pc.width < 4)
-    return;
+  if (isnan(d0) || pc.width < 4) return;
   const int x0 = max(0, x - pc.h), x1 = min(pc.width - 1, x + pc.h);
   const int y0 = max(0, y - pc.hh), y1 = min(pc.height - 1, y + pc.hh);
-  const float n = float((x1 - x0 + 1) * (y1 - y0 + 1));
+  const int wx = x1 - x0 + 1, npx = wx * (y1 - y0 + 1);
+  const float n = float(npx);
+  const int lane = int(gl_SubgroupInvocationID), lanes = int(gl_SubgroupSize);
 
   // Reference side: f = left - 128, fx its spline's derivative, sd = fx (1, xi, eta).
   precise float f_sum = 0.0, ff = 0.0;
   precise float hm[6] = float[6](0.0, 0.0, 0.0, 0.0, 0.0, 0.0);  // H00 H01 H02 H11 H12 H22
   precise float sd_sum[3] = float[3](0.0, 0.0, 0.0), sd_fs[3] = float[3](0.0, 0.0, 0.0);
-  for (int r = y0; r <= y1; ++r) {
-    const float eta = float(r - y);
-    for (int cx = x0; cx <= x1; ++cx) {
-      const float xi = float(cx - x);
-      const float f = float(pixel_at(left_px[r * pc.words_per_row + (cx >> 2)], cx)) - 128.0;
-      precise const float fx = 0.5 * (coef_l[r * pc.width + mirror(cx + 1)] - coef_l[r * pc.width + mirror(cx - 1)]);
-      f_sum += f;
-      ff += f * f;
-      precise const float w = fx * fx;
-      hm[0] += w; hm[1] += w * xi; hm[2] += w * eta; hm[3] += w * xi * xi; hm[4] += w * xi * eta; hm[5] += w * eta * eta;
-      sd_sum[0] += fx; sd_sum[1] += fx * xi; sd_sum[2] += fx * eta;
-      sd_fs[0] += fx * f; sd_fs[1] += fx * f * xi; sd_fs[2] += fx * f * eta;
-    }
+  for (int k = lane; k < npx; k += lanes) {
+    const int r = y0 + k / wx, cx = x0 + k % wx;
+    const float eta = float(r - y), xi = float(cx - x);
+    const float f = left_grey(cx, r);
+    precise const float fx = left_dx(cx, r);
+    f_sum += f;
+    ff += f * f;
+    precise const float w = fx * fx;
+    hm[0] += w; hm[1] += w * xi; hm[2] += w * eta; hm[3] += w * xi * xi; hm[4] += w * xi * eta; hm[5] += w * eta * eta;
+    sd_sum[0] += fx; sd_sum[1] += fx * xi; sd_sum[2] += fx * eta;
+    sd_fs[0] += fx * f; sd_fs[1] += fx * f * xi; sd_fs[2] += fx * f * eta;
   }
+  f_sum = subgroupAdd(f_sum);
+  ff = subgroupAdd(ff);
+  for (int k = 0; k < 6; ++k) hm[k] = subgroupAdd(hm[k]);
+  for (int k = 0; k < 3; ++k) { sd_sum[k] = subgroupAdd(sd_sum[k]); sd_fs[k] = subgroupAdd(sd_fs[k]); }
   precise const float f_mean = f_sum / n;
   precise const float f2 = ff - f_sum * f_mean;
   if (hm[0] < pc.min_gradient * pc.min_gradient * n || !(f2 > 0.0)) return;
@@ -98,20 +109,22 @@ void main() {
     }
     precise float g_sum = 0.0, gg = 0.0, fg = 0.0;
     precise float sd_g[3] = float[3](0.0, 0.0, 0.0);
-    for (int r = y0; r <= y1; ++r) {
-      const float eta = float(r - y);
-      for (int cx = x0; cx <= x1; ++cx) {
-        const float xi = float(cx - x);
-        precise const float X = float(x) + c + a * xi + b * eta;
-        const float g = sample_right(r, X);
-        const float f = float(pixel_at(left_px[r * pc.words_per_row + (cx >> 2)], cx)) - 128.0;
-        precise const float fx = 0.5 * (coef_l[r * pc.width + mirror(cx + 1)] - coef_l[r * pc.width + mirror(cx - 1)]);
-        g_sum += g;
-        gg += g * g;
-        fg += f * g;
-        sd_g[0] += fx * g; sd_g[1] += fx * g * xi; sd_g[2] += fx * g * eta;
-      }
+    for (int k = lane; k < npx; k += lanes) {
+      const int r = y0 + k / wx, cx = x0 + k % wx;
+      const float eta = float(r - y), xi = float(cx - x);
+      precise const float X = float(x) + c + a * xi + b * eta;
+      const float g = sample_right(r, X);
+      const float f = left_grey(cx, r);
+      precise const float fx = left_dx(cx, r);
+      g_sum += g;
+      gg += g * g;
+      fg += f * g;
+      sd_g[0] += fx * g; sd_g[1] += fx * g * xi; sd_g[2] += fx * g * eta;
     }
+    g_sum = subgroupAdd(g_sum);
+    gg = subgroupAdd(gg);
+    fg = subgroupAdd(fg);
+    for (int k = 0; k < 3; ++k) sd_g[k] = subgroupAdd(sd_g[k]);
     precise const float g_mean = g_sum / n;
     precise const float g2 = gg - g_sum * g_mean;
     if (!(g2 > 1e-6)) return;
@@ -140,8 +153,15 @@ void main() {
         const float variance = r2 / (n - unknowns) * inv[0];
         if (!(variance <= pc.max_sigma * pc.max_sigma)) return;
       }
-      if (zncc >= pc.min_zncc) refined[i] = -c;
+      if (zncc >= pc.min_zncc && subgroupElect()) refined[i] = -c;
       return;
     }
   }
+}
+
+void main() {
+  const int y = pc.first_row + int(gl_WorkGroupID.y) * pc.row_step;
+  const int stride = int(gl_NumWorkGroups.x * gl_NumSubgroups);
+  for (int col = int(gl_WorkGroupID.x * gl_NumSubgroups + gl_SubgroupID); col < pc.columns; col += stride)
+    refine(col * pc.step, y);
 }

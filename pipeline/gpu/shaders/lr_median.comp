@@ -1,14 +1,15 @@
 #version 450
 // Left-right check, then a 3x3 median, then pixels to float. A left disparity v (1/64 px) survives the
 // check when the right view's disparity at x - round(v) is within max_diff px of round(v), round(v) =
-// (v + 32) >> 6 (max_diff < 0: no check). The median is taken over the nine checked values with
+// (v + 32) >> 6 (max_diff < 0: no check). The right view comes as wta.comp's keys: min_disparity +
+// (key & 511), 0xFFFFFFFF none. The median is taken over the nine checked values with
 // invalid = -1 (so invalid neighbours pull toward invalid); pixels on the image border keep their own.
 // Output: px as float, NaN invalid.
 layout(local_size_x = 64) in;
 layout(std430, binding = 0) readonly buffer DispL { int disp_l[]; };
-layout(std430, binding = 1) readonly buffer DispR { int disp_r[]; };
+layout(std430, binding = 1) readonly buffer RightKey { uint right_key[]; };
 layout(std430, binding = 2) writeonly buffer Out { float disparity[]; };
-layout(push_constant) uniform Params { int width, height, max_diff, median; } pc;
+layout(push_constant) uniform Params { int width, height, max_diff, median, min_disparity; } pc;
 
 int checked(int x, int y) {
   const int v = disp_l[y * pc.width + x];
@@ -16,8 +17,8 @@ int checked(int x, int y) {
   const int d = (v + 32) >> 6;
   const int xr = x - d;
   if (xr < 0) return -1;
-  const int r = disp_r[y * pc.width + xr];
-  return r >= 0 && abs(r - d) <= pc.max_diff ? v : -1;
+  const uint key = right_key[y * pc.width + xr];
+  return key != 0xFFFFFFFFu && abs(pc.min_disparity + int(key & 511u) - d) <= pc.max_diff ? v : -1;
 }
 
 void main() {

@@ -1,54 +1,99 @@
 #version 450
-// Winner-takes-all on the summed costs, per pixel. Left view: the lowest sum (lowest d on ties), rejected
-// (-1) when another disparity more than 1 away has sum * (100 - uniqueness) < best * 100, or when the
-// pixel is closer than min_disparity + num_disparities - 1 to the left edge (part of the band has no
-// match); sub-pixel by a parabola through the sums at d-1, d, d+1, in 1/64 px, integer arithmetic:
+// Winner-takes-all on the summed path costs. Left view: the lowest sum (lowest d on ties), rejected (-1)
+// when another disparity more than 1 away has sum * (100 - uniqueness) < best * 100, or when the pixel is
+// closer than min_disparity + num_disparities - 1 to the left edge (part of the band has no match);
+// sub-pixel by a parabola through the sums at d-1, d, d+1, in 1/64 px, integer arithmetic:
 //   d64 = (min_disparity + d) 64 + trunc(((S[d-1] - S[d+1]) 64 + den) / (2 den)), den = max(S[d-1] + S[d+1] - 2 S[d], 1)
-// Right view (for the left-right check): integer disparity minimising S(xr + min_disparity + d, d), -1 if none.
-layout(local_size_x = 64) in;
-layout(std430, binding = 0) readonly buffer Sum { uint sum[]; };
+// Right view (for the left-right check): the d minimising S(xr + min_disparity + d, d), lowest d on ties.
+//
+// Workgroup (segment of kSegment pixels, row), kParts invocations per pixel: it adds the directions' byte
+// costs (aggregate.comp) of its pixels into 16-bit sums in shared memory; each invocation scans every
+// kParts-th disparity of its pixel, and the parts combine through shared atomics (the best as the key
+// sum * 512 + d, so the lowest sum and then the lowest d win, as the reference's scan). For the right view
+// every (pixel x, d) of the segment offers the key S(x, d) * 512 + d to the right pixel
+// xr = x - min_disparity - d; the smallest key wins, first within the workgroup (shared atomicMin), then
+// across workgroups (atomicMin into right_key, which the host fills with 0xFFFFFFFF = none). Sums are at
+// most 8 * 255 < 2^11, so keys fit 20 bits.
+layout(local_size_x = 128) in;
+layout(std430, binding = 0) readonly buffer PathCost { uint w[]; } path_cost[8];  // aggregate.comp's
 layout(std430, binding = 1) writeonly buffer DispL { int disp_l[]; };
-layout(std430, binding = 2) writeonly buffer DispR { int disp_r[]; };
-layout(push_constant) uniform Params { int width, height, min_disparity, num_disparities, uniqueness; } pc;
+layout(std430, binding = 2) buffer RightKey { uint right_key[]; };
+layout(push_constant) uniform Params { int width, height, min_disparity, num_disparities, uniqueness, paths, words; } pc;
 
-uint cost(int x, int y, int d) {
-  const uint w = sum[(y * pc.width + x) * (pc.num_disparities / 2) + d / 2];
-  return (d & 1) == 0 ? (w & 0xFFFFu) : (w >> 16);
-}
+const int kMaxDisparities = 512;
+const int kSegment = 16, kParts = 8;
+// One word of padding per pixel: invocations reading the same d of different pixels hit different banks.
+shared uint sums[kSegment][kMaxDisparities / 2 + 1];  // d = 2i in the low half of word i, 2i + 1 in the high
+shared uint right_best[kSegment + kMaxDisparities - 1];
+shared uint left_best[kSegment];  // key sum * 512 + d
+shared uint ambiguous[kSegment];  // nonzero: the uniqueness test failed
+
+uint sum_at(int p, int d) { return (sums[p][d >> 1] >> (16u * uint(d & 1))) & 0xFFFFu; }
 
 void main() {
-  const int x = int(gl_GlobalInvocationID.x), y = int(gl_GlobalInvocationID.y);
-  if (x >= pc.width || y >= pc.height) return;
-  const int D = pc.num_disparities;
-  int out_l = -1;
-  if (x >= pc.min_disparity + D - 1) {
-    uint best = 0xFFFFFFFFu;
-    int bd = 0;
-    for (int d = 0; d < D; ++d) {
-      const uint s = cost(x, y, d);
-      if (s < best) { best = s; bd = d; }
-    }
-    bool unique = true;
-    for (int d = 0; d < D; ++d) {
-      if (abs(d - bd) > 1 && cost(x, y, d) * uint(100 - pc.uniqueness) < best * 100u) unique = false;
-    }
-    if (unique) {
-      out_l = (pc.min_disparity + bd) * 64;
-      if (bd > 0 && bd < D - 1) {
-        const int a = int(cost(x, y, bd - 1)), b = int(cost(x, y, bd + 1));
-        const int den = max(a + b - 2 * int(best), 1);
-        const int n = (a - b) * 64 + den;
-        out_l += n >= 0 ? n / (2 * den) : -((-n) / (2 * den));
+  const int t = int(gl_LocalInvocationID.x);
+  const int W = pc.width, D = pc.num_disparities;
+  const int x0 = int(gl_WorkGroupID.x) * kSegment, y = int(gl_WorkGroupID.y);
+  const int n = min(kSegment, W - x0);  // pixels of this segment
+  const int span = n + D - 1;            // right pixels its pairs reach, from base on
+  const int base = x0 - pc.min_disparity - (D - 1);
+  for (int i = t; i < span; i += 128) right_best[i] = 0xFFFFFFFFu;
+  if (t < kSegment) { left_best[t] = 0xFFFFFFFFu; ambiguous[t] = 0u; }
+  for (int i = t; i < n * pc.words; i += 128) {
+    const int p = i / pc.words, word = i - p * pc.words;
+    const int at = (y * W + x0 + p) * pc.words + word;
+    uint even = 0u, odd = 0u;  // bytes 0 and 2, and 1 and 3, of every direction's word, added as 16-bit halves
+    for (int k = 0; k < 8; ++k) {  // unrolled: the loads are in flight together
+      if (k < pc.paths) {
+        const uint v = path_cost[k].w[at];
+        even += v & 0x00FF00FFu;
+        odd += (v >> 8) & 0x00FF00FFu;
       }
     }
+    sums[p][2 * word] = (even & 0xFFFFu) | (odd << 16);          // d = 4 word, 4 word + 1
+    sums[p][2 * word + 1] = (even >> 16) | (odd & 0xFFFF0000u);  // d = 4 word + 2, 4 word + 3
   }
-  disp_l[y * pc.width + x] = out_l;
+  barrier();
 
-  int out_r = -1;
-  uint best_r = 0xFFFFFFFFu;
-  for (int d = 0; d < D && x + pc.min_disparity + d < pc.width; ++d) {
-    const uint s = cost(x + pc.min_disparity + d, y, d);
-    if (s < best_r) { best_r = s; out_r = pc.min_disparity + d; }
+  const int p = t / kParts, part = t % kParts, x = x0 + p;
+  const bool left = p < n && x >= pc.min_disparity + D - 1;
+  if (left) {
+    uint key = 0xFFFFFFFFu;
+    for (int d = part; d < D; d += kParts) key = min(key, (sum_at(p, d) << 9) | uint(d));
+    atomicMin(left_best[p], key);
   }
-  disp_r[y * pc.width + x] = out_r;
+  barrier();
+  const uint best = left_best[p] >> 9;
+  const int bd = int(left_best[p] & 511u);
+  if (left) {
+    bool unique = true;
+    for (int d = part; d < D; d += kParts) {
+      if (abs(d - bd) > 1 && sum_at(p, d) * uint(100 - pc.uniqueness) < best * 100u) unique = false;
+    }
+    if (!unique) atomicOr(ambiguous[p], 1u);
+  }
+  barrier();
+  if (p < n && part == 0) {
+    int out_l = -1;
+    if (left && ambiguous[p] == 0u) {
+      out_l = (pc.min_disparity + bd) * 64;
+      if (bd > 0 && bd < D - 1) {
+        const int a = int(sum_at(p, bd - 1)), b = int(sum_at(p, bd + 1));
+        const int den = max(a + b - 2 * int(best), 1);
+        const int num = (a - b) * 64 + den;
+        out_l += num >= 0 ? num / (2 * den) : -((-num) / (2 * den));
+      }
+    }
+    disp_l[y * W + x] = out_l;
+  }
+
+  for (int i = t; i < n * D; i += 128) {
+    const int q = i / D, d = i - q * D;
+    atomicMin(right_best[q + (D - 1) - d], (sum_at(q, d) << 9) | uint(d));
+  }
+  barrier();
+  for (int i = t; i < span; i += 128) {
+    const int xr = base + i;
+    if (xr >= 0 && xr < W && right_best[i] != 0xFFFFFFFFu) atomicMin(right_key[y * W + xr], right_best[i]);
+  }
 }

@@ -97,7 +97,7 @@ int main(int argc, char** argv) {
     constexpr int kPaths[] = {2, 4, 8};
     params.paths = kPaths[k % 3];
     params.p1 = uni(0, 30);
-    params.p2 = uni(params.p1 + 1, 300);
+    params.p2 = uni(params.p1 + 1, kMaxP2);  // the largest keeps path costs at a byte's edge
     params.uniqueness = uni(0, 25);
     params.lr_max_diff = uni(-1, 2);
     params.median = k % 4 != 3;

@@ -35,8 +35,8 @@ struct SgmParams {
   bool median = true;   // 3x3 median after the check
 };
 
-constexpr int kMaxDisparities = 512;  // shared-memory size of aggregate.comp
-constexpr int kMaxP2 = 4000;          // keeps 8 (64 + P2) < 65536: sums stay 16-bit
+constexpr int kMaxDisparities = 512;  // shared-memory size of aggregate.comp and wta.comp
+constexpr int kMaxP2 = 191;           // keeps a path cost L <= 64 + P2 within a byte (aggregate.comp)
 constexpr int kSubpixelScale = 64;    // fixed-point disparities are in 1/64 px
 
 // Empty when `band`/`params` can be matched on width x height images, else what is wrong.
