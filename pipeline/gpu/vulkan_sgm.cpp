@@ -184,7 +184,7 @@ struct DicPush {
 std::uint32_t groups(int n, int size) { return static_cast<std::uint32_t>((n + size - 1) / size); }
 
 constexpr int kPathsMax = 8;
-constexpr int kWtaSegment = 16;  // pixels per workgroup of wta.comp
+constexpr int kWtaSegment = 16;                  // pixels per workgroup of wta.comp
 constexpr std::uint32_t kNoMatch = 0xFFFFFFFFu;  // right_key: no disparity
 constexpr std::uint32_t kNanBits = 0x7FC00000u;  // a quiet NaN, float bits
 int cost_words(int disparities) { return (disparities + 3) / 4; }
@@ -397,8 +397,8 @@ struct VulkanSgm::Impl {
     std::vector<VkDescriptorSetLayoutBinding> lb(bindings.size());
     for (std::size_t i = 0; i < lb.size(); ++i) {
       lb[i] = VkDescriptorSetLayoutBinding{static_cast<std::uint32_t>(i), VK_DESCRIPTOR_TYPE_STORAGE_BUFFER,
-                                           static_cast<std::uint32_t>(bindings[i].size()),
-                                           VK_SHADER_STAGE_COMPUTE_BIT, nullptr};
+                                           static_cast<std::uint32_t>(bindings[i].size()), VK_SHADER_STAGE_COMPUTE_BIT,
+                                           nullptr};
     }
     auto li = info_struct<VkDescriptorSetLayoutCreateInfo>(VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO);
     li.bindingCount = static_cast<std::uint32_t>(lb.size());
@@ -588,8 +588,7 @@ struct VulkanSgm::Impl {
              groups(width, kWtaSegment), static_cast<std::uint32_t>(height), 1);
     barrier(cb, compute, compute);
     stamp(cb, slot, 4);
-    dispatch(cb, lr_median,
-             LrMedianPush{width, height, params.lr_max_diff, params.median ? 1 : 0, band.min_disparity},
+    dispatch(cb, lr_median, LrMedianPush{width, height, params.lr_max_diff, params.median ? 1 : 0, band.min_disparity},
              groups(width, 64), static_cast<std::uint32_t>(height), 1);
     barrier(cb, compute, compute | transfer);
     stamp(cb, slot, 5);
@@ -603,9 +602,9 @@ struct VulkanSgm::Impl {
       const int rows = first_row < end ? (end - 1 - first_row) / d.row_step + 1 : 0;
       const int columns = (width + d.step - 1) / d.step;
       const DicPush push{
-          width,          height,         words_per_row, d.half_window, d.half_height,         d.max_iterations,
-          d.step,         d.row_step,     first_row,     columns,       d.first_order ? 1 : 0, d.tolerance_px,
-          d.max_shift_px, d.max_gradient, d.min_gradient, d.min_zncc,   d.max_sigma_px};
+          width,          height,         words_per_row,  d.half_window, d.half_height,         d.max_iterations,
+          d.step,         d.row_step,     first_row,      columns,       d.first_order ? 1 : 0, d.tolerance_px,
+          d.max_shift_px, d.max_gradient, d.min_gradient, d.min_zncc,    d.max_sigma_px};
       const int per_group = std::max(1, 64 / static_cast<int>(subgroup_size));
       if (rows > 0) dispatch(cb, dic, push, groups(columns, per_group), static_cast<std::uint32_t>(rows), 1);
       barrier(cb, compute, transfer);
@@ -797,11 +796,10 @@ GpuStatus VulkanSgm::compute_stages(const ImageView& left, const ImageView& righ
     const VkResult r = m.read_back(m.costs[dir], costs.data() + dir * pixels * words * 4, pixels * words * 4);
     if (r != VK_SUCCESS) return m.fail(r);
   }
-  for (auto [buffer, dst, bytes] :
-       {std::tuple{&m.census_left, static_cast<void*>(st.census_left.data()), pixels * 8},
-        std::tuple{&m.census_right, static_cast<void*>(st.census_right.data()), pixels * 8},
-        std::tuple{&m.disp_left, static_cast<void*>(st.disparity_left.data()), pixels * 4},
-        std::tuple{&m.right_key, static_cast<void*>(keys.data()), pixels * 4}}) {
+  for (auto [buffer, dst, bytes] : {std::tuple{&m.census_left, static_cast<void*>(st.census_left.data()), pixels * 8},
+                                    std::tuple{&m.census_right, static_cast<void*>(st.census_right.data()), pixels * 8},
+                                    std::tuple{&m.disp_left, static_cast<void*>(st.disparity_left.data()), pixels * 4},
+                                    std::tuple{&m.right_key, static_cast<void*>(keys.data()), pixels * 4}}) {
     const VkResult r = m.read_back(*buffer, dst, bytes);
     if (r != VK_SUCCESS) return m.fail(r);
   }
