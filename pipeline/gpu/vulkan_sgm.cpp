@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <array>
 #include <cctype>
+#include <chrono>
 #include <cmath>
 #include <cstring>
 #include <limits>
@@ -36,7 +37,6 @@ const std::uint32_t kDicSpv[] =
 #include "dic.comp.inc"
     ;
 
-constexpr int kSlots = 2;
 constexpr std::uint32_t kTimestamps = 8;  // start, after upload, census, aggregate, wta, lr/median, dic, download
 
 // A Vulkan info structure: zeroed, its type set.
@@ -153,12 +153,27 @@ struct Buffer {
   void* mapped = nullptr;  // host-visible buffers stay mapped
 };
 
+// Every buffer one frame's work uses on the device. Each slot has its own, so that two frames in flight
+// share nothing and the device may overlap them.
+struct FrameBuffers {
+  // match_cost: cost.comp's byte costs; costs: aggregate.comp's, one buffer per direction; right_key: the
+  // right view as wta.comp's keys.
+  Buffer image_left, image_right, census_left, census_right, match_cost, disp_left, right_key, disparity;
+  std::array<Buffer, 8> costs;
+  Buffer spline_left, spline_right, refined;  // DIC
+};
+
+constexpr int kSlots = 2;
+
 struct Kernel {
   VkDescriptorSetLayout set_layout = VK_NULL_HANDLE;
   VkPipelineLayout layout = VK_NULL_HANDLE;
   VkPipeline pipeline = VK_NULL_HANDLE;
-  VkDescriptorSet set = VK_NULL_HANDLE;
+  std::array<VkDescriptorSet, kSlots> sets{};  // a slot's FrameBuffers
 };
+
+// The buffers of each binding of a kernel (several: an array of descriptors), from a slot's FrameBuffers.
+using Bindings = std::vector<std::vector<const Buffer*>>;
 
 // words: 32-bit words of byte costs per pixel and direction (aggregate.comp).
 struct CostPush {
@@ -183,11 +198,12 @@ struct DicPush {
 
 std::uint32_t groups(int n, int size) { return static_cast<std::uint32_t>((n + size - 1) / size); }
 
-constexpr int kPathsMax = 8;
+constexpr int kPathsMax = 8;                     // FrameBuffers::costs
 constexpr int kWtaSegment = 16;                  // pixels per workgroup of wta.comp
 constexpr std::uint32_t kNoMatch = 0xFFFFFFFFu;  // right_key: no disparity
 constexpr std::uint32_t kNanBits = 0x7FC00000u;  // a quiet NaN, float bits
-int cost_words(int disparities) { return (disparities + 3) / 4; }
+// Words of four byte costs per pixel: a multiple of 4, so that wta.comp reads them 16 bytes at a time.
+int cost_words(int disparities) { return (disparities + 15) / 16 * 4; }
 
 }  // namespace
 
@@ -224,6 +240,8 @@ struct VulkanSgm::Impl {
   VkInstance instance = VK_NULL_HANDLE;
   VkPhysicalDevice physical = VK_NULL_HANDLE;
   VkDevice device = VK_NULL_HANDLE;
+  // One queue: the slots' frames follow each other on the device (a second queue of the same family
+  // was measured slower on an H100: the frames did not overlap, and each paid a switch).
   VkQueue queue = VK_NULL_HANDLE;
   std::uint32_t family = 0;
   VkPhysicalDeviceMemoryProperties memory{};
@@ -232,13 +250,29 @@ struct VulkanSgm::Impl {
   VkDescriptorPool descriptors = VK_NULL_HANDLE;
   VkQueryPool queries = VK_NULL_HANDLE;
   std::uint32_t subgroup_size = 1;
-  // Device buffers, shared by both slots (their work is serialised on the one queue). costs: every
-  // direction's byte path costs (aggregate.comp); right_key: the right view as wta.comp's keys.
-  // match_cost: cost.comp's byte costs; costs: aggregate.comp's, one buffer per direction.
-  Buffer image_left, image_right, census_left, census_right, match_cost, disp_left, right_key, disparity;
-  std::array<Buffer, kPathsMax> costs;
-  Buffer spline_left, spline_right, refined;  // DIC
+  // What a slot's command buffer was recorded for: the same frame parameters submit it again unrecorded.
+  struct Recorded {
+    bool valid = false, dic = false;
+    SgmBand band;
+    SgmParams params;
+    DicParams dic_params;
+    bool operator==(const Recorded& o) const {
+      const auto tie_sgm = [](const Recorded& r) {
+        return std::tie(r.band.min_disparity, r.band.num_disparities, r.params.paths, r.params.p1, r.params.p2,
+                        r.params.uniqueness, r.params.lr_max_diff, r.params.median);
+      };
+      const auto tie_dic = [](const DicParams& d) {
+        return std::tie(d.half_window, d.half_height, d.max_iterations, d.tolerance_px, d.step, d.row_step, d.row_begin,
+                        d.row_end, d.first_order, d.max_shift_px, d.max_gradient, d.min_gradient, d.min_zncc,
+                        d.max_sigma_px);
+      };
+      return valid && o.valid && dic == o.dic && tie_sgm(*this) == tie_sgm(o) &&
+             (!dic || tie_dic(dic_params) == tie_dic(o.dic_params));
+    }
+  };
   struct Slot {
+    FrameBuffers dev;
+    Recorded recorded;
     Buffer upload;    // host-visible: left then right image, packed words
     Buffer download;  // host-visible: the disparity, floats
     VkCommandBuffer commands = VK_NULL_HANDLE;
@@ -258,11 +292,12 @@ struct VulkanSgm::Impl {
         vkDestroyPipelineLayout(device, k->layout, nullptr);
         vkDestroyDescriptorSetLayout(device, k->set_layout, nullptr);
       }
-      for (Buffer* b : {&image_left, &image_right, &census_left, &census_right, &match_cost, &disp_left, &right_key,
-                        &disparity, &spline_left, &spline_right, &refined})
-        destroy(*b);
-      for (Buffer& b : costs) destroy(b);
       for (Slot& s : slots) {
+        FrameBuffers& f = s.dev;
+        for (Buffer* b : {&f.image_left, &f.image_right, &f.census_left, &f.census_right, &f.match_cost, &f.disp_left,
+                          &f.right_key, &f.disparity, &f.spline_left, &f.spline_right, &f.refined})
+          destroy(*b);
+        for (Buffer& b : f.costs) destroy(b);
         destroy(s.upload);
         destroy(s.download);
         vkDestroyFence(device, s.fence, nullptr);
@@ -390,9 +425,12 @@ struct VulkanSgm::Impl {
   }
 
   // bindings[i]: the buffers of binding i, an array of descriptors where there are several.
-  // spec0: the value of specialization constant 0, where the shader has one.
-  Kernel make_kernel(const std::uint32_t* spv, std::size_t bytes, std::uint32_t push_bytes,
-                     const std::vector<std::vector<const Buffer*>>& bindings, const std::int32_t* spec0 = nullptr) {
+  // bindings: of each slot's FrameBuffers. spec: the values of the shader's specialization constants 0, 1,
+  // ..., where it has them.
+  template <class BindingsOf>
+  Kernel make_kernel(const std::uint32_t* spv, std::size_t bytes, std::uint32_t push_bytes, BindingsOf bindings_of,
+                     const std::vector<std::int32_t>& spec = {}) {
+    const Bindings bindings = bindings_of(slots[0].dev);
     Kernel k;
     std::vector<VkDescriptorSetLayoutBinding> lb(bindings.size());
     for (std::size_t i = 0; i < lb.size(); ++i) {
@@ -421,9 +459,12 @@ struct VulkanSgm::Impl {
     ci.stage.stage = VK_SHADER_STAGE_COMPUTE_BIT;
     ci.stage.module = module;
     ci.stage.pName = "main";
-    const VkSpecializationMapEntry entry{0, 0, sizeof(std::int32_t)};
-    const VkSpecializationInfo spec{1, &entry, sizeof(std::int32_t), spec0};
-    if (spec0) ci.stage.pSpecializationInfo = &spec;
+    std::vector<VkSpecializationMapEntry> entries;
+    for (std::uint32_t i = 0; i < spec.size(); ++i)
+      entries.push_back(VkSpecializationMapEntry{i, i * 4, sizeof(std::int32_t)});
+    const VkSpecializationInfo spec_info{static_cast<std::uint32_t>(entries.size()), entries.data(),
+                                         spec.size() * sizeof(std::int32_t), spec.data()};
+    if (!spec.empty()) ci.stage.pSpecializationInfo = &spec_info;
     ci.layout = k.layout;
     const VkResult r = vkCreateComputePipelines(device, VK_NULL_HANDLE, 1, &ci, nullptr, &k.pipeline);
     vkDestroyShaderModule(device, module, nullptr);
@@ -432,20 +473,27 @@ struct VulkanSgm::Impl {
     ai.descriptorPool = descriptors;
     ai.descriptorSetCount = 1;
     ai.pSetLayouts = &k.set_layout;
-    check(vkAllocateDescriptorSets(device, &ai, &k.set), "vkAllocateDescriptorSets");
+    for (int slot = 0; slot < kSlots; ++slot) {
+      VkDescriptorSet& set = k.sets[static_cast<std::size_t>(slot)];
+      check(vkAllocateDescriptorSets(device, &ai, &set), "vkAllocateDescriptorSets");
+      write_set(set, bindings_of(slots[static_cast<std::size_t>(slot)].dev));
+    }
+    return k;
+  }
+
+  void write_set(VkDescriptorSet set, const Bindings& bindings) {
     std::vector<std::vector<VkDescriptorBufferInfo>> bi(bindings.size());
     std::vector<VkWriteDescriptorSet> w(bindings.size());
     for (std::size_t i = 0; i < bindings.size(); ++i) {
       for (const Buffer* b : bindings[i]) bi[i].push_back(VkDescriptorBufferInfo{b->buffer, 0, VK_WHOLE_SIZE});
       w[i] = info_struct<VkWriteDescriptorSet>(VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET);
-      w[i].dstSet = k.set;
+      w[i].dstSet = set;
       w[i].dstBinding = static_cast<std::uint32_t>(i);
       w[i].descriptorCount = static_cast<std::uint32_t>(bi[i].size());
       w[i].descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
       w[i].pBufferInfo = bi[i].data();
     }
     vkUpdateDescriptorSets(device, static_cast<std::uint32_t>(w.size()), w.data(), 0, nullptr);
-    return k;
   }
 
   void setup() {
@@ -454,10 +502,6 @@ struct VulkanSgm::Impl {
     const VkDeviceSize image_bytes = static_cast<VkDeviceSize>(words_per_row) * static_cast<VkDeviceSize>(height) * 4;
     const VkBufferUsageFlags storage =
         VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_SRC_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT;
-    image_left = make_buffer(image_bytes, storage, false);
-    image_right = make_buffer(image_bytes, storage, false);
-    census_left = make_buffer(pixels * 8, storage, false);
-    census_right = make_buffer(pixels * 8, storage, false);
     // One volume per direction, so that each stays within the device's range for one storage buffer.
     const VkDeviceSize cost_bytes = pixels * static_cast<VkDeviceSize>(cost_words(max_disparities)) * 4;
     VkPhysicalDeviceProperties props;
@@ -468,16 +512,17 @@ struct VulkanSgm::Impl {
                      " bytes a direction, over maxStorageBufferRange " +
                      std::to_string(props.limits.maxStorageBufferRange));
     subgroup_size = std::max<std::uint32_t>(info.subgroup_size, 1);
-    match_cost = make_buffer(cost_bytes, storage, false);
-    for (Buffer& b : costs) b = make_buffer(cost_bytes, storage, false);
-    std::vector<const Buffer*> cost_set;
-    for (const Buffer& b : costs) cost_set.push_back(&b);
-    disp_left = make_buffer(pixels * 4, storage, false);
-    right_key = make_buffer(pixels * 4, storage, false);
-    disparity = make_buffer(pixels * 4, storage, false);
-    spline_left = make_buffer(pixels * 4, storage, false);
-    spline_right = make_buffer(pixels * 4, storage, false);
-    refined = make_buffer(pixels * 4, storage, false);
+    for (Slot& s : slots) {
+      FrameBuffers& f = s.dev;
+      f.image_left = make_buffer(image_bytes, storage, false);
+      f.image_right = make_buffer(image_bytes, storage, false);
+      f.census_left = make_buffer(pixels * 8, storage, false);
+      f.census_right = make_buffer(pixels * 8, storage, false);
+      f.match_cost = make_buffer(cost_bytes, storage, false);
+      for (Buffer& b : f.costs) b = make_buffer(cost_bytes, storage, false);
+      for (Buffer* b : {&f.disp_left, &f.right_key, &f.disparity, &f.spline_left, &f.spline_right, &f.refined})
+        *b = make_buffer(pixels * 4, storage, false);
+    }
 
     auto pi = info_struct<VkCommandPoolCreateInfo>(VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO);
     pi.flags = VK_COMMAND_POOL_CREATE_RESET_COMMAND_BUFFER_BIT;
@@ -500,25 +545,45 @@ struct VulkanSgm::Impl {
       qi.queryCount = kTimestamps * kSlots;
       check(vkCreateQueryPool(device, &qi, nullptr, &queries), "vkCreateQueryPool");
     }
-    const VkDescriptorPoolSize size{VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 48};
+    const VkDescriptorPoolSize size{VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 48 * kSlots};
     auto dpi = info_struct<VkDescriptorPoolCreateInfo>(VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO);
-    dpi.maxSets = 7;
+    dpi.maxSets = 7 * kSlots;
     dpi.poolSizeCount = 1;
     dpi.pPoolSizes = &size;
     check(vkCreateDescriptorPool(device, &dpi, nullptr, &descriptors), "vkCreateDescriptorPool");
-    census = make_kernel(kCensusSpv, sizeof kCensusSpv, sizeof(CensusPush),
-                         {{&image_left}, {&image_right}, {&census_left}, {&census_right}});
-    cost = make_kernel(kCostSpv, sizeof kCostSpv, sizeof(CostPush), {{&census_left}, {&census_right}, {&match_cost}});
-    const std::int32_t groups_of_128 = (max_disparities + 127) / 128;  // aggregate.comp's kGroups
-    aggregate = make_kernel(kAggregateSpv, sizeof kAggregateSpv, sizeof(AggregatePush), {{&match_cost}, cost_set},
-                            &groups_of_128);
-    wta = make_kernel(kWtaSpv, sizeof kWtaSpv, sizeof(WtaPush), {cost_set, {&disp_left}, {&right_key}});
-    lr_median = make_kernel(kLrMedianSpv, sizeof kLrMedianSpv, sizeof(LrMedianPush),
-                            {{&disp_left}, {&right_key}, {&disparity}});
-    bspline = make_kernel(kBsplineSpv, sizeof kBsplineSpv, sizeof(CensusPush),
-                          {{&image_left}, {&image_right}, {&spline_left}, {&spline_right}});
-    dic = make_kernel(kDicSpv, sizeof kDicSpv, sizeof(DicPush),
-                      {{&image_left}, {&spline_left}, {&spline_right}, {&disparity}, {&refined}});
+    const auto all_costs = [](const FrameBuffers& f) {
+      std::vector<const Buffer*> v;
+      for (const Buffer& b : f.costs) v.push_back(&b);
+      return v;
+    };
+    census = make_kernel(kCensusSpv, sizeof kCensusSpv, sizeof(CensusPush), [](const FrameBuffers& f) -> Bindings {
+      return {{&f.image_left}, {&f.image_right}, {&f.census_left}, {&f.census_right}};
+    });
+    cost = make_kernel(kCostSpv, sizeof kCostSpv, sizeof(CostPush), [](const FrameBuffers& f) -> Bindings {
+      return {{&f.census_left}, {&f.census_right}, {&f.match_cost}};
+    });
+    // aggregate.comp: a workgroup of one subgroup as the device reports it, each invocation a block of
+    // words of four disparities, enough for max_disparities.
+    const auto threads = static_cast<std::int32_t>(std::clamp<std::uint32_t>(subgroup_size, 4, 128));
+    const std::int32_t words_each = (cost_words(max_disparities) + threads - 1) / threads;
+    aggregate = make_kernel(kAggregateSpv, sizeof kAggregateSpv, sizeof(AggregatePush),
+                            [&](const FrameBuffers& f) -> Bindings {
+                              return {{&f.match_cost}, all_costs(f)};
+                            },
+                            {threads, words_each});
+    wta = make_kernel(kWtaSpv, sizeof kWtaSpv, sizeof(WtaPush), [&](const FrameBuffers& f) -> Bindings {
+      return {all_costs(f), {&f.disp_left}, {&f.right_key}};
+    });
+    lr_median =
+        make_kernel(kLrMedianSpv, sizeof kLrMedianSpv, sizeof(LrMedianPush), [](const FrameBuffers& f) -> Bindings {
+          return {{&f.disp_left}, {&f.right_key}, {&f.disparity}};
+        });
+    bspline = make_kernel(kBsplineSpv, sizeof kBsplineSpv, sizeof(CensusPush), [](const FrameBuffers& f) -> Bindings {
+      return {{&f.image_left}, {&f.image_right}, {&f.spline_left}, {&f.spline_right}};
+    });
+    dic = make_kernel(kDicSpv, sizeof kDicSpv, sizeof(DicPush), [](const FrameBuffers& f) -> Bindings {
+      return {{&f.image_left}, {&f.spline_left}, {&f.spline_right}, {&f.disparity}, {&f.refined}};
+    });
   }
 
   void barrier(VkCommandBuffer cb, VkPipelineStageFlags src, VkPipelineStageFlags dst) {
@@ -536,10 +601,11 @@ struct VulkanSgm::Impl {
   }
 
   template <class Push>
-  void dispatch(VkCommandBuffer cb, const Kernel& k, const Push& push, std::uint32_t x, std::uint32_t y,
+  void dispatch(VkCommandBuffer cb, int slot, const Kernel& k, const Push& push, std::uint32_t x, std::uint32_t y,
                 std::uint32_t z) {
     vkCmdBindPipeline(cb, VK_PIPELINE_BIND_POINT_COMPUTE, k.pipeline);
-    vkCmdBindDescriptorSets(cb, VK_PIPELINE_BIND_POINT_COMPUTE, k.layout, 0, 1, &k.set, 0, nullptr);
+    vkCmdBindDescriptorSets(cb, VK_PIPELINE_BIND_POINT_COMPUTE, k.layout, 0, 1, &k.sets[static_cast<std::size_t>(slot)],
+                            0, nullptr);
     vkCmdPushConstants(cb, k.layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(Push), &push);
     vkCmdDispatch(cb, x, y, z);
   }
@@ -551,44 +617,45 @@ struct VulkanSgm::Impl {
     VkResult r = vkResetCommandBuffer(cb, 0);
     if (r != VK_SUCCESS) return r;
     auto bi = info_struct<VkCommandBufferBeginInfo>(VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO);
-    bi.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;
     if ((r = vkBeginCommandBuffer(cb, &bi)) != VK_SUCCESS) return r;
     if (queries) vkCmdResetQueryPool(cb, queries, static_cast<std::uint32_t>(slot) * kTimestamps, kTimestamps);
-    // The other slot's frame used the same device buffers: its writes (and reads) finish first.
-    barrier(cb, compute | transfer, compute | transfer);
+    // No barrier against the other slot's frame: it uses its own buffers. This slot's last frame is
+    // complete: submit() waits for its fence before recording again.
+    const FrameBuffers& f = slots[static_cast<std::size_t>(slot)].dev;
     stamp(cb, slot, 0);
     const Buffer& up = slots[static_cast<std::size_t>(slot)].upload;
     const VkDeviceSize half = up.size / 2;
     VkBufferCopy copy{0, 0, half};
-    vkCmdCopyBuffer(cb, up.buffer, image_left.buffer, 1, &copy);
+    vkCmdCopyBuffer(cb, up.buffer, f.image_left.buffer, 1, &copy);
     copy.srcOffset = half;
-    vkCmdCopyBuffer(cb, up.buffer, image_right.buffer, 1, &copy);
+    vkCmdCopyBuffer(cb, up.buffer, f.image_right.buffer, 1, &copy);
     // wta.comp takes the minimum key per right pixel with atomics; lr_median.comp reads none as no match.
-    vkCmdFillBuffer(cb, right_key.buffer, 0, VK_WHOLE_SIZE, kNoMatch);
-    if (dic_params) vkCmdFillBuffer(cb, refined.buffer, 0, VK_WHOLE_SIZE, kNanBits);  // pixels not refined
+    vkCmdFillBuffer(cb, f.right_key.buffer, 0, VK_WHOLE_SIZE, kNoMatch);
+    if (dic_params) vkCmdFillBuffer(cb, f.refined.buffer, 0, VK_WHOLE_SIZE, kNanBits);  // pixels not refined
     barrier(cb, transfer, compute);
     stamp(cb, slot, 1);
-    dispatch(cb, census, CensusPush{width, height, words_per_row}, groups(width, 16), groups(height, 8), 2);
+    dispatch(cb, slot, census, CensusPush{width, height, words_per_row}, groups(width, 16), groups(height, 8), 2);
     if (dic_params)
-      dispatch(cb, bspline, CensusPush{width, height, words_per_row}, groups(width, 64),
+      dispatch(cb, slot, bspline, CensusPush{width, height, words_per_row}, groups(width, 64),
                static_cast<std::uint32_t>(height), 2);
     barrier(cb, compute, compute);
     stamp(cb, slot, 2);
     const int lines = params.paths == 2 ? height : params.paths == 4 ? std::max(width, height) : width + height - 1;
     const int words = cost_words(band.num_disparities);
-    dispatch(cb, cost, CostPush{width, height, band.min_disparity, band.num_disparities, words},
+    dispatch(cb, slot, cost, CostPush{width, height, band.min_disparity, band.num_disparities, words},
              groups(width * words, 64), static_cast<std::uint32_t>(height), 1);
     barrier(cb, compute, compute);
-    dispatch(cb, aggregate, AggregatePush{width, height, band.num_disparities, params.p1, params.p2, words},
+    dispatch(cb, slot, aggregate, AggregatePush{width, height, band.num_disparities, params.p1, params.p2, words},
              static_cast<std::uint32_t>(lines), static_cast<std::uint32_t>(params.paths), 1);
     barrier(cb, compute, compute);
     stamp(cb, slot, 3);
-    dispatch(cb, wta,
+    dispatch(cb, slot, wta,
              WtaPush{width, height, band.min_disparity, band.num_disparities, params.uniqueness, params.paths, words},
              groups(width, kWtaSegment), static_cast<std::uint32_t>(height), 1);
     barrier(cb, compute, compute);
     stamp(cb, slot, 4);
-    dispatch(cb, lr_median, LrMedianPush{width, height, params.lr_max_diff, params.median ? 1 : 0, band.min_disparity},
+    dispatch(cb, slot, lr_median,
+             LrMedianPush{width, height, params.lr_max_diff, params.median ? 1 : 0, band.min_disparity},
              groups(width, 64), static_cast<std::uint32_t>(height), 1);
     barrier(cb, compute, compute | transfer);
     stamp(cb, slot, 5);
@@ -606,13 +673,13 @@ struct VulkanSgm::Impl {
           d.step,         d.row_step,     first_row,      columns,       d.first_order ? 1 : 0, d.tolerance_px,
           d.max_shift_px, d.max_gradient, d.min_gradient, d.min_zncc,    d.max_sigma_px};
       const int per_group = std::max(1, 64 / static_cast<int>(subgroup_size));
-      if (rows > 0) dispatch(cb, dic, push, groups(columns, per_group), static_cast<std::uint32_t>(rows), 1);
+      if (rows > 0) dispatch(cb, slot, dic, push, groups(columns, per_group), static_cast<std::uint32_t>(rows), 1);
       barrier(cb, compute, transfer);
     }
     stamp(cb, slot, 6);
     const Buffer& down = slots[static_cast<std::size_t>(slot)].download;
     copy = VkBufferCopy{0, 0, down.size};
-    vkCmdCopyBuffer(cb, (dic_params ? refined : disparity).buffer, down.buffer, 1, &copy);
+    vkCmdCopyBuffer(cb, (dic_params ? f.refined : f.disparity).buffer, down.buffer, 1, &copy);
     barrier(cb, transfer, VK_PIPELINE_STAGE_HOST_BIT);
     stamp(cb, slot, 7);
     return vkEndCommandBuffer(cb);
@@ -704,7 +771,13 @@ GpuStatus VulkanSgm::submit(const ImageView& left, const ImageView& right, SgmBa
       std::memset(row + m.width, 0, row_bytes - static_cast<std::size_t>(m.width));
     }
   }
-  VkResult r = m.record(ticket, band, params, dic);
+  Impl::Recorded wanted{true, dic != nullptr, band, params, dic ? *dic : DicParams{}};
+  VkResult r = VK_SUCCESS;
+  if (!(slot.recorded == wanted)) {
+    slot.recorded = Impl::Recorded{};
+    r = m.record(ticket, band, params, dic);
+    if (r == VK_SUCCESS) slot.recorded = wanted;
+  }
   if (r == VK_SUCCESS) r = vkResetFences(m.device, 1, &slot.fence);
   if (r == VK_SUCCESS) {
     auto si = info_struct<VkSubmitInfo>(VK_STRUCTURE_TYPE_SUBMIT_INFO);
@@ -722,7 +795,12 @@ GpuStatus VulkanSgm::collect(int ticket, float* disparity, std::size_t stride, G
   Impl& m = *impl_;
   if (ticket < 0 || ticket >= kSlots || !m.slots[static_cast<std::size_t>(ticket)].busy) return GpuStatus::InvalidInput;
   Impl::Slot& slot = m.slots[static_cast<std::size_t>(ticket)];
-  const VkResult r = vkWaitForFences(m.device, 1, &slot.fence, VK_TRUE, m.timeout_ns);
+  // Poll for up to a millisecond before sleeping in the driver: a frame takes about that long on a GPU,
+  // and a sleeping wait adds its wake-up to every frame's latency.
+  VkResult r = VK_NOT_READY;
+  const auto spin_until = std::chrono::steady_clock::now() + std::chrono::milliseconds(1);
+  while (r == VK_NOT_READY && std::chrono::steady_clock::now() < spin_until) r = vkGetFenceStatus(m.device, slot.fence);
+  if (r == VK_NOT_READY) r = vkWaitForFences(m.device, 1, &slot.fence, VK_TRUE, m.timeout_ns);
   if (r != VK_SUCCESS) {
     // On a timeout the slot stays busy: its buffers may still be written.
     if (r != VK_TIMEOUT) slot.busy = false;
@@ -770,15 +848,18 @@ GpuStatus VulkanSgm::compute_stages(const ImageView& left, const ImageView& righ
   st.spline_left.clear();
   st.spline_right.clear();
   std::vector<float> out(pixels);
-  GpuStatus s = compute(left, right, band, params, dic, out.data(), static_cast<std::size_t>(m.width));
+  int ticket = 0;
+  GpuStatus s = submit(left, right, band, params, dic, ticket);
+  if (s == GpuStatus::Ok) s = collect(ticket, out.data(), static_cast<std::size_t>(m.width));
   if (s != GpuStatus::Ok) return s;
+  const FrameBuffers& f = m.slots[static_cast<std::size_t>(ticket)].dev;
   if (dic) {
     st.refined = out;
     st.spline_left.resize(pixels);
     st.spline_right.resize(pixels);
     for (auto [buffer, dst] :
-         {std::pair{&m.spline_left, st.spline_left.data()}, std::pair{&m.spline_right, st.spline_right.data()},
-          std::pair{&m.disparity, st.disparity.data()}}) {
+         {std::pair{&f.spline_left, st.spline_left.data()}, std::pair{&f.spline_right, st.spline_right.data()},
+          std::pair{&f.disparity, st.disparity.data()}}) {
       const VkResult r = m.read_back(*buffer, dst, pixels * 4);
       if (r != VK_SUCCESS) return m.fail(r);
     }
@@ -793,13 +874,13 @@ GpuStatus VulkanSgm::compute_stages(const ImageView& left, const ImageView& righ
   std::vector<std::uint8_t> costs(pixels * words * 4 * static_cast<std::size_t>(params.paths));
   std::vector<std::uint32_t> keys(pixels);
   for (std::size_t dir = 0; dir < static_cast<std::size_t>(params.paths); ++dir) {
-    const VkResult r = m.read_back(m.costs[dir], costs.data() + dir * pixels * words * 4, pixels * words * 4);
+    const VkResult r = m.read_back(f.costs[dir], costs.data() + dir * pixels * words * 4, pixels * words * 4);
     if (r != VK_SUCCESS) return m.fail(r);
   }
-  for (auto [buffer, dst, bytes] : {std::tuple{&m.census_left, static_cast<void*>(st.census_left.data()), pixels * 8},
-                                    std::tuple{&m.census_right, static_cast<void*>(st.census_right.data()), pixels * 8},
-                                    std::tuple{&m.disp_left, static_cast<void*>(st.disparity_left.data()), pixels * 4},
-                                    std::tuple{&m.right_key, static_cast<void*>(keys.data()), pixels * 4}}) {
+  for (auto [buffer, dst, bytes] : {std::tuple{&f.census_left, static_cast<void*>(st.census_left.data()), pixels * 8},
+                                    std::tuple{&f.census_right, static_cast<void*>(st.census_right.data()), pixels * 8},
+                                    std::tuple{&f.disp_left, static_cast<void*>(st.disparity_left.data()), pixels * 4},
+                                    std::tuple{&f.right_key, static_cast<void*>(keys.data()), pixels * 4}}) {
     const VkResult r = m.read_back(*buffer, dst, bytes);
     if (r != VK_SUCCESS) return m.fail(r);
   }

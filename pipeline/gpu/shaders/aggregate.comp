@@ -1,33 +1,42 @@
 #version 450
 // All SGM path directions in one dispatch: workgroup (line, direction) walks one line of the image in
-// direction kDirections[direction] (as sgm_reference.cpp). Its 32 invocations own the disparities in
-// fours, d = 128 j + 4 t + e (j < kGroups, e < 4): they read the matching costs C of their four disparities
-// as one word of cost.comp's volume, and store the four path costs L as one word of four bytes in that
-// direction's own volume, path_cost[direction][y][x][word]; winner-takes-all (wta.comp) adds the
-// directions. No atomics and no zeroing: every word is written by exactly one invocation.
+// direction kDirections[direction] (as sgm_reference.cpp). Its kThreads invocations own consecutive
+// blocks of kWords words of four disparities: invocation t has d = 4 (kWords t + k) + e, k < kWords,
+// e < 4. They read the matching costs C of a word from cost.comp's volume and store the four path costs L
+// as one word of four bytes in that direction's own volume, path_cost[direction][y][x][word];
+// winner-takes-all (wta.comp) adds the directions. No atomics and no zeroing: every word is written once.
 //   L(p, d) = C(p, d) + min(L(p-r, d), L(p-r, d-1) + P1, L(p-r, d+1) + P1, min_k L(p-r, k) + P2) - min_k L(p-r, k)
 // L <= 64 + P2, and the host keeps P2 <= 191 (kMaxP2), so L fits a byte.
-// The walk is latency-bound, so no global load waits inside a step: the costs of the next kRing steps are
-// loaded while the current kRing steps run (the step loop is unrolled kRing times, so the ring lives in
-// registers). Works for any subgroup size: the minimum over disparities is a subgroup minimum, then one
-// value per subgroup through shared memory.
+//
+// Each step depends on the last, so the walk is bound by the latency of a step. An invocation keeps its
+// own L in registers; only the L at the edges of its block and the minimum cross invocations. When the
+// workgroup is one subgroup (kThreads is the device's subgroup size) they cross by shuffles and a
+// subgroup minimum: no barrier, no shared memory. Where the device runs it as several subgroups (a
+// driver free to pick a smaller size), they cross through shared memory with one barrier a step: the
+// same arithmetic, slower. The costs of the next kRing steps are loaded while the current kRing steps run
+// (the loops over the ring and an invocation's disparities are unrolled, so both live in registers).
 #extension GL_KHR_shader_subgroup_basic : require
 #extension GL_KHR_shader_subgroup_arithmetic : require
-layout(local_size_x = 32) in;
-// Words of four disparities per invocation: num_disparities / 128 rounded up, set when the pipeline is made.
-layout(constant_id = 0) const int kGroups = 4;
+#extension GL_KHR_shader_subgroup_shuffle_relative : require
+#extension GL_EXT_control_flow_attributes : require
+// Set when the pipeline is made: the subgroup size the device reports, and
+// kWords = num_disparities / 4 / kThreads rounded up, for the most disparities the matcher takes.
+layout(local_size_x_id = 0) in;
+layout(constant_id = 0) const int kThreads = 32;
+layout(constant_id = 1) const int kWords = 1;
 layout(std430, binding = 0) readonly buffer Cost { uint cost[]; };  // cost.comp's, [y][x][word]
 // One buffer per direction (each within the device's storage-buffer range), [y][x][word], 4 bytes a word;
-// words per pixel: num_disparities / 4 rounded up.
+// words per pixel: num_disparities / 16 rounded up, times 4 (the bytes past num_disparities are 0xFF).
 layout(std430, binding = 1) writeonly buffer PathCost { uint w[]; } path_cost[8];
 layout(push_constant) uniform Params { int width, height, num_disparities, p1, p2, words; } pc;
 
-const uint kBig = 0xFFFFu;  // beyond any L; the sentinels at d = -1 and d = num_disparities
+const uint kBig = 0xFFFFu;  // beyond any L: the disparities outside the band
 const int kRing = 8;
+const int kOwn = 4 * kWords;  // disparities per invocation
 const ivec2 kDirections[8] = ivec2[8](ivec2(1, 0), ivec2(-1, 0), ivec2(0, 1), ivec2(0, -1), ivec2(1, 1), ivec2(-1, 1),
                                       ivec2(1, -1), ivec2(-1, -1));
-shared uint path[2][128 * kGroups + 2];  // L of the previous and current pixel, index d + 1
-shared uint subgroup_min[2][32];
+// The shared-memory exchange, by step parity: each invocation's first and last L, each subgroup's minimum.
+shared uint edge_first[2][kThreads], edge_last[2][kThreads], subgroup_min[2][kThreads];
 
 void main() {
   const int W = pc.width, H = pc.height, D = pc.num_disparities;
@@ -45,59 +54,79 @@ void main() {
     x0 = dx > 0 ? 0 : W - 1;
     y0 = dy > 0 ? 1 + (line - W) : H - 2 - (line - W);
   }
-  // Steps until the line leaves the image.
   const int along_x = dx == 0 ? 1 << 30 : dx > 0 ? W - x0 : x0 + 1;
   const int along_y = dy == 0 ? 1 << 30 : dy > 0 ? H - y0 : y0 + 1;
-  const int steps = min(along_x, along_y);
+  const int steps = min(along_x, along_y);  // until the line leaves the image
   const int t = int(gl_LocalInvocationID.x);
-  for (int i = t; i < 128 * kGroups + 2; i += 32) { path[0][i] = kBig; path[1][i] = kBig; }
+  const int first_word = kWords * t;
+  const bool one_subgroup = gl_NumSubgroups == 1u;
 
-  uint ring[kRing][kGroups], next[kRing][kGroups];
-  for (int s = 0; s < kRing; ++s)
-    for (int j = 0; j < kGroups; ++j) {
-      const int word = 32 * j + t, x = x0 + s * dx, y = y0 + s * dy;
-      ring[s][j] = s < steps && word < pc.words ? cost[(y * W + x) * pc.words + word] : 0u;
+  uint ring[kRing][kWords], next[kRing][kWords];
+  [[unroll]] for (int s = 0; s < kRing; ++s)
+    [[unroll]] for (int k = 0; k < kWords; ++k) {
+      const int word = first_word + k, x = x0 + s * dx, y = y0 + s * dy;
+      ring[s][k] = s < steps && word < pc.words ? cost[(y * W + x) * pc.words + word] : 0u;
     }
-  barrier();
 
+  uint prev[kOwn];
+  [[unroll]] for (int i = 0; i < kOwn; ++i) prev[i] = kBig;
+  uint below = kBig, above = kBig;  // L(p-r) at this block's first d - 1 and last d + 1
   uint prev_min = 0u;
   for (int block = 0; block * kRing < steps; ++block) {
-    for (int s = 0; s < kRing; ++s)  // the next block's costs, in flight during this block
-      for (int j = 0; j < kGroups; ++j) {
-        const int step = (block + 1) * kRing + s, word = 32 * j + t, x = x0 + step * dx, y = y0 + step * dy;
-        next[s][j] = step < steps && word < pc.words ? cost[(y * W + x) * pc.words + word] : 0u;
+    [[unroll]] for (int s = 0; s < kRing; ++s)  // the next block's costs, in flight during this block
+      [[unroll]] for (int k = 0; k < kWords; ++k) {
+        const int step = (block + 1) * kRing + s, word = first_word + k, x = x0 + step * dx, y = y0 + step * dy;
+        next[s][k] = step < steps && word < pc.words ? cost[(y * W + x) * pc.words + word] : 0u;
       }
-    for (int s = 0; s < kRing; ++s) {
+    [[unroll]] for (int s = 0; s < kRing; ++s) {
       const int step = block * kRing + s;
-      if (step >= steps) break;  // uniform: the barrier below is skipped by the whole workgroup
+      if (step >= steps) break;  // uniform: the whole workgroup leaves together
       const int x = x0 + step * dx, y = y0 + step * dy;
-      const int cur = step & 1, prv = cur ^ 1;
+      uint cur[kOwn];
       uint local_min = kBig;
-      for (int j = 0; j < kGroups; ++j) {
-        const int word = 32 * j + t;
-        if (word >= pc.words) break;
-        uint packed = 0u;
-        for (int e = 0; e < 4; ++e) {
-          const int d = 4 * word + e;
-          if (d >= D) break;
-          const uint c = (ring[s][j] >> uint(8 * e)) & 0xFFu;
-          uint l = c;
+      [[unroll]] for (int i = 0; i < kOwn; ++i) {
+        const int d = 4 * first_word + i;
+        uint l = kBig;
+        if (d < D) {
+          const uint c = (ring[s][i / 4] >> uint(8 * (i % 4))) & 0xFFu;
+          l = c;
           if (step > 0) {
-            const uint near = min(path[prv][d], path[prv][d + 2]) + uint(pc.p1);
-            l = c + min(min(path[prv][d + 1], near), prev_min + uint(pc.p2)) - prev_min;
+            const uint lo = i == 0 ? below : prev[i == 0 ? 0 : i - 1];
+            const uint hi = i == kOwn - 1 ? above : prev[i == kOwn - 1 ? i : i + 1];
+            l = c + min(min(prev[i], min(lo, hi) + uint(pc.p1)), prev_min + uint(pc.p2)) - prev_min;
           }
-          path[cur][d + 1] = l;
           local_min = min(local_min, l);
-          packed |= l << uint(8 * e);
         }
-        path_cost[dir].w[(y * W + x) * pc.words + word] = packed;
+        cur[i] = l;
       }
-      const uint m = subgroupMin(local_min);
-      if (subgroupElect()) subgroup_min[cur][gl_SubgroupID] = m;
-      barrier();  // path[cur] and subgroup_min[cur] complete; the next step writes the other halves
-      prev_min = kBig;
-      for (uint g = 0u; g < gl_NumSubgroups; ++g) prev_min = min(prev_min, subgroup_min[cur][g]);
+      [[unroll]] for (int k = 0; k < kWords; ++k) {
+        const int word = first_word + k;
+        if (word < pc.words)
+          path_cost[dir].w[(y * W + x) * pc.words + word] =
+              (cur[4 * k] & 0xFFu) | ((cur[4 * k + 1] & 0xFFu) << 8) | ((cur[4 * k + 2] & 0xFFu) << 16) |
+              ((cur[4 * k + 3] & 0xFFu) << 24);
+      }
+      if (one_subgroup) {
+        below = subgroupShuffleUp(cur[kOwn - 1], 1u);
+        above = subgroupShuffleDown(cur[0], 1u);
+        if (t == 0) below = kBig;
+        if (t == kThreads - 1) above = kBig;
+        prev_min = subgroupMin(local_min);
+      } else {
+        const int par = step & 1;  // two copies: the next step's writes need no second barrier
+        edge_first[par][t] = cur[0];
+        edge_last[par][t] = cur[kOwn - 1];
+        const uint m = subgroupMin(local_min);
+        if (subgroupElect()) subgroup_min[par][gl_SubgroupID] = m;
+        barrier();
+        below = t > 0 ? edge_last[par][t - 1] : kBig;
+        above = t < kThreads - 1 ? edge_first[par][t + 1] : kBig;
+        prev_min = kBig;
+        for (uint g = 0u; g < gl_NumSubgroups; ++g) prev_min = min(prev_min, subgroup_min[par][g]);
+      }
+      [[unroll]] for (int i = 0; i < kOwn; ++i) prev[i] = cur[i];
     }
-    ring = next;
+    [[unroll]] for (int r = 0; r < kRing; ++r)
+      [[unroll]] for (int k = 0; k < kWords; ++k) ring[r][k] = next[r][k];
   }
 }

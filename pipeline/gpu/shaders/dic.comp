@@ -11,6 +11,7 @@
 // Workgroup (x, grid row); the host fills `refined` with NaN first, so pixels not refined stay NaN.
 #extension GL_KHR_shader_subgroup_basic : require
 #extension GL_KHR_shader_subgroup_arithmetic : require
+#extension GL_EXT_control_flow_attributes : require
 layout(local_size_x = 64) in;
 layout(std430, binding = 0) readonly buffer Left { uint left_px[]; };
 layout(std430, binding = 1) readonly buffer CoefL { float coef_l[]; };
@@ -22,6 +23,8 @@ layout(push_constant) uniform Params {
   float tolerance, max_shift, max_gradient, min_gradient, min_zncc, max_sigma;
 } pc;
 #include "common.glsl"
+
+const int kCache = 8;  // window pixels an invocation keeps in registers
 
 int mirror(int k) { return k < 0 ? -k : k > pc.width - 1 ? 2 * (pc.width - 1) - k : k; }
 
@@ -60,11 +63,18 @@ void refine(int x, int y) {
   precise float f_sum = 0.0, ff = 0.0;
   precise float hm[6] = float[6](0.0, 0.0, 0.0, 0.0, 0.0, 0.0);  // H00 H01 H02 H11 H12 H22
   precise float sd_sum[3] = float[3](0.0, 0.0, 0.0), sd_fs[3] = float[3](0.0, 0.0, 0.0);
+  // An invocation's first kCache pixels keep their position, grey and gradient in registers for the
+  // iterations (11 x 11 windows need 4 a lane at subgroup size 32); any further pixels are read again.
+  int cache_r[kCache], cache_x[kCache];
+  float cache_f[kCache], cache_fx[kCache];
   for (int k = lane; k < npx; k += lanes) {
     const int r = y0 + k / wx, cx = x0 + k % wx;
     const float eta = float(r - y), xi = float(cx - x);
     const float f = left_grey(cx, r);
     precise const float fx = left_dx(cx, r);
+    const int j = (k - lane) / lanes;
+    [[unroll]] for (int q = 0; q < kCache; ++q)
+      if (q == j) { cache_r[q] = r; cache_x[q] = cx; cache_f[q] = f; cache_fx[q] = fx; }
     f_sum += f;
     ff += f * f;
     precise const float w = fx * fx;
@@ -109,7 +119,21 @@ void refine(int x, int y) {
     }
     precise float g_sum = 0.0, gg = 0.0, fg = 0.0;
     precise float sd_g[3] = float[3](0.0, 0.0, 0.0);
-    for (int k = lane; k < npx; k += lanes) {
+    [[unroll]] for (int q = 0; q < kCache; ++q) {
+      if (lane + q * lanes < npx) {
+        const int r = cache_r[q], cx = cache_x[q];
+        const float eta = float(r - y), xi = float(cx - x);
+        precise const float X = float(x) + c + a * xi + b * eta;
+        const float g = sample_right(r, X);
+        const float f = cache_f[q];
+        precise const float fx = cache_fx[q];
+        g_sum += g;
+        gg += g * g;
+        fg += f * g;
+        sd_g[0] += fx * g; sd_g[1] += fx * g * xi; sd_g[2] += fx * g * eta;
+      }
+    }
+    for (int k = lane + kCache * lanes; k < npx; k += lanes) {
       const int r = y0 + k / wx, cx = x0 + k % wx;
       const float eta = float(r - y), xi = float(cx - x);
       precise const float X = float(x) + c + a * xi + b * eta;

@@ -1,4 +1,5 @@
 #version 450
+#extension GL_EXT_control_flow_attributes : require
 // Winner-takes-all on the summed path costs. Left view: the lowest sum (lowest d on ties), rejected (-1)
 // when another disparity more than 1 away has sum * (100 - uniqueness) < best * 100, or when the pixel is
 // closer than min_disparity + num_disparities - 1 to the left edge (part of the band has no match);
@@ -15,7 +16,8 @@
 // across workgroups (atomicMin into right_key, which the host fills with 0xFFFFFFFF = none). Sums are at
 // most 8 * 255 < 2^11, so keys fit 20 bits.
 layout(local_size_x = 128) in;
-layout(std430, binding = 0) readonly buffer PathCost { uint w[]; } path_cost[8];  // aggregate.comp's
+// aggregate.comp's, read four words at a time (the host makes words a multiple of 4).
+layout(std430, binding = 0) readonly buffer PathCost { uvec4 w[]; } path_cost[8];
 layout(std430, binding = 1) writeonly buffer DispL { int disp_l[]; };
 layout(std430, binding = 2) buffer RightKey { uint right_key[]; };
 layout(push_constant) uniform Params { int width, height, min_disparity, num_disparities, uniqueness, paths, words; } pc;
@@ -39,19 +41,23 @@ void main() {
   const int base = x0 - pc.min_disparity - (D - 1);
   for (int i = t; i < span; i += 128) right_best[i] = 0xFFFFFFFFu;
   if (t < kSegment) { left_best[t] = 0xFFFFFFFFu; ambiguous[t] = 0u; }
-  for (int i = t; i < n * pc.words; i += 128) {
-    const int p = i / pc.words, word = i - p * pc.words;
-    const int at = (y * W + x0 + p) * pc.words + word;
-    uint even = 0u, odd = 0u;  // bytes 0 and 2, and 1 and 3, of every direction's word, added as 16-bit halves
-    for (int k = 0; k < 8; ++k) {  // unrolled: the loads are in flight together
+  const int quads = pc.words / 4;
+  for (int i = t; i < n * quads; i += 128) {
+    const int p = i / quads, quad = i - p * quads;
+    const int at = (y * W + x0 + p) * quads + quad;
+    uvec4 even = uvec4(0u), odd = uvec4(0u);  // bytes 0 and 2, and 1 and 3, of each word, added as 16-bit halves
+    [[unroll]] for (int k = 0; k < 8; ++k) {  // unrolled: the loads are in flight together
       if (k < pc.paths) {
-        const uint v = path_cost[k].w[at];
+        const uvec4 v = path_cost[k].w[at];
         even += v & 0x00FF00FFu;
         odd += (v >> 8) & 0x00FF00FFu;
       }
     }
-    sums[p][2 * word] = (even & 0xFFFFu) | (odd << 16);          // d = 4 word, 4 word + 1
-    sums[p][2 * word + 1] = (even >> 16) | (odd & 0xFFFF0000u);  // d = 4 word + 2, 4 word + 3
+    [[unroll]] for (int c = 0; c < 4; ++c) {
+      const int word = 4 * quad + c;
+      sums[p][2 * word] = (even[c] & 0xFFFFu) | (odd[c] << 16);          // d = 4 word, 4 word + 1
+      sums[p][2 * word + 1] = (even[c] >> 16) | (odd[c] & 0xFFFF0000u);  // d = 4 word + 2, 4 word + 3
+    }
   }
   barrier();
 
