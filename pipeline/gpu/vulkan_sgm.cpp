@@ -250,6 +250,7 @@ struct VulkanSgm::Impl {
   VkDescriptorPool descriptors = VK_NULL_HANDLE;
   VkQueryPool queries = VK_NULL_HANDLE;
   std::uint32_t subgroup_size = 1;
+  int aggregate_threads = 0;  // 0: subgroup_size
   // What a slot's command buffer was recorded for: the same frame parameters submit it again unrecorded.
   struct Recorded {
     bool valid = false, dic = false;
@@ -564,7 +565,9 @@ struct VulkanSgm::Impl {
     });
     // aggregate.comp: a workgroup of one subgroup as the device reports it, each invocation a block of
     // words of four disparities, enough for max_disparities.
-    const auto threads = static_cast<std::int32_t>(std::clamp<std::uint32_t>(subgroup_size, 4, 128));
+    const auto threads = aggregate_threads > 0
+                             ? aggregate_threads
+                             : static_cast<std::int32_t>(std::clamp<std::uint32_t>(subgroup_size, 4, 128));
     const std::int32_t words_each = (cost_words(max_disparities) + threads - 1) / threads;
     aggregate = make_kernel(kAggregateSpv, sizeof kAggregateSpv, sizeof(AggregatePush),
                             [&](const FrameBuffers& f) -> Bindings {
@@ -721,7 +724,8 @@ struct VulkanSgm::Impl {
   }
 };
 
-VulkanSgm::VulkanSgm(const std::string& device, int width, int height, int max_disparities, int timeout_ms)
+VulkanSgm::VulkanSgm(const std::string& device, int width, int height, int max_disparities, int timeout_ms,
+                     int aggregate_threads)
     : impl_(std::make_unique<Impl>()) {
   if (width < 1 || height < 1 || max_disparities < 2 || max_disparities > kMaxDisparities)
     throw GpuError("VulkanSgm: bad size " + std::to_string(width) + "x" + std::to_string(height) + ", " +
@@ -730,6 +734,9 @@ VulkanSgm::VulkanSgm(const std::string& device, int width, int height, int max_d
   m.width = width;
   m.height = height;
   m.max_disparities = max_disparities;
+  if (aggregate_threads < 0 || aggregate_threads > 128)
+    throw GpuError("VulkanSgm: aggregate_threads " + std::to_string(aggregate_threads) + " is not 0..128");
+  m.aggregate_threads = aggregate_threads;
   m.instance = make_instance();
   m.select(device);
   if (timeout_ms <= 0) timeout_ms = m.info.type == "cpu" ? 300000 : 2000;

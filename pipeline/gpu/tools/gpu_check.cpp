@@ -8,7 +8,9 @@
 // at most 0.5% of the pixels refined on one side only (a rejection threshold met within rounding). Exit status: 0 all
 // equal, 1 a difference, 2 usage, 77 no usable Vulkan device (CTest's skip code). Needs only the Vulkan loader at run
 // time.
-//   rutd-gpu-check [--device NAME|INDEX] [--seed N] [--cases N]
+//   rutd-gpu-check [--device NAME|INDEX] [--seed N] [--cases N] [--aggregate-threads N]
+// --aggregate-threads: the aggregation's workgroup size (VulkanSgm); several subgroups' worth checks its
+// shared-memory path.
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -70,13 +72,15 @@ int main(int argc, char** argv) {
   std::string device;
   unsigned seed = 1;
   int cases = 12;
+  int aggregate_threads = 0;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     if (a == "--device" && i + 1 < argc) device = argv[++i];
     else if (a == "--seed" && i + 1 < argc) seed = static_cast<unsigned>(std::strtoul(argv[++i], nullptr, 10));
     else if (a == "--cases" && i + 1 < argc) cases = std::atoi(argv[++i]);
+    else if (a == "--aggregate-threads" && i + 1 < argc) aggregate_threads = std::atoi(argv[++i]);
     else {
-      std::fprintf(stderr, "usage: %s [--device NAME|INDEX] [--seed N] [--cases N]\n", argv[0]);
+      std::fprintf(stderr, "usage: %s [--device NAME|INDEX] [--seed N] [--cases N] [--aggregate-threads N]\n", argv[0]);
       return 2;
     }
   }
@@ -113,7 +117,7 @@ int main(int argc, char** argv) {
     dic.first_order = k % 5 != 4;
     dic.max_sigma_px = k % 2 == 0 ? 0.0f : 0.2f;
     try {
-      sgm = std::make_unique<VulkanSgm>(device, c.width, c.height, c.num_disparities);
+      sgm = std::make_unique<VulkanSgm>(device, c.width, c.height, c.num_disparities, 0, aggregate_threads);
     } catch (const GpuError& e) {
       if (k == 0) {
         std::printf("SKIP: no usable Vulkan device: %s\n", e.what());
@@ -123,8 +127,10 @@ int main(int argc, char** argv) {
       return 1;
     }
     if (k == 0)
-      std::printf("device %d: %s (%s, subgroup %u)\n", sgm->device().index, sgm->device().name.c_str(),
-                  sgm->device().type.c_str(), sgm->device().subgroup_size);
+      std::printf(
+          "device %d: %s (%s, subgroup %u%s)\n", sgm->device().index, sgm->device().name.c_str(),
+          sgm->device().type.c_str(), sgm->device().subgroup_size,
+          aggregate_threads > 0 ? (", aggregation workgroup " + std::to_string(aggregate_threads)).c_str() : "");
     const auto pair =
         tools::synthetic_pair(c.width, c.height, c.min_disparity, c.num_disparities, seed + static_cast<unsigned>(k));
     const ImageView l{pair.left.data(), c.width, c.height, static_cast<std::size_t>(c.width)};

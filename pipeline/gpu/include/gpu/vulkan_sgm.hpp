@@ -51,7 +51,11 @@ class VulkanSgm {
   // insensitive). Every buffer is allocated here for width x height pairs and up to max_disparities.
   // timeout_ms bounds the wait for one frame; <= 0: 2 s on a GPU, 300 s on a CPU device (lavapipe takes
   // seconds per full frame). Throws GpuError naming the device and the failing call.
-  VulkanSgm(const std::string& device, int width, int height, int max_disparities, int timeout_ms = 0);
+  // aggregate_threads: the aggregation's workgroup size; 0 is the device's subgroup size (its fast path).
+  // Tests give several subgroups' worth to run its shared-memory path, which devices that choose a
+  // smaller subgroup than they report take.
+  VulkanSgm(const std::string& device, int width, int height, int max_disparities, int timeout_ms = 0,
+            int aggregate_threads = 0);
   ~VulkanSgm();
   VulkanSgm(const VulkanSgm&) = delete;
   VulkanSgm& operator=(const VulkanSgm&) = delete;
