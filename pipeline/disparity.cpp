@@ -70,6 +70,11 @@ std::unique_ptr<DisparityEngine> make_engine(EngineKind kind, const EngineConfig
   return make_cpu_engine(kind, params);
 }
 
+void check_engine(EngineKind kind, const EngineConfig& params) {
+  if (kind == EngineKind::Gpu) sgm_params(params);  // the device is looked for when the engine is made
+  else make_cpu_engine(kind, params);               // OpenCV checks its parameters as the matcher is made
+}
+
 DisparityBand band_for_range(const StereoGeometry& g, WorkingRange range) {
   const double d_far = g.disparity_at(std::max(range.near_mm, range.far_mm));
   const double d_near = g.disparity_at(std::min(range.near_mm, range.far_mm));

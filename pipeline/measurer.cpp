@@ -58,7 +58,9 @@ StripRoi default_strip(cv::Size rectified_size) {
 StereoMeasurer::StereoMeasurer(const StereoCalibration& calibration, const MeasurerConfig& config)
     : config_(config), image_size_(calibration.image_size), geometry_(calibration, matched_strip(calibration, config)) {
   config_.strip = measured_strip(calibration, config);
-  context_ = make_match_context();
+  // measure()'s engine is made on its first call: the real-time pipeline and replay make their own, and a
+  // GPU engine made here too would open the device twice. Bad parameters still throw here.
+  check_engine(config_.engine, config_.engine_config);
 }
 
 MatchContext StereoMeasurer::make_match_context() const {
@@ -237,6 +239,7 @@ RutMeasurement StereoMeasurer::measure(const cv::Mat& left_raw, const cv::Mat& r
   work_.frame.left = left_raw;
   work_.frame.right = right_raw;
   if (rectify(work_)) {
+    if (!context_.engine) context_ = make_match_context();
     match(work_, context_);
     extract(work_, rut_ws_);
   }

@@ -82,6 +82,10 @@ std::unique_ptr<DisparityEngine> make_cpu_engine(EngineKind kind, const EngineCo
 // (same disparities, slower). Throws std::invalid_argument for bad parameters.
 std::unique_ptr<DisparityEngine> make_engine(EngineKind kind, const EngineConfig& params = {});
 
+// Throws std::invalid_argument where make_engine would, without making the engine (no GPU device is
+// opened): a start-up check for objects that make their engine later.
+void check_engine(EngineKind kind, const EngineConfig& params = {});
+
 // The band that covers every disparity of `range` (far end rounded down, near end up), min_disparity
 // >= 0. Can be wide (hundreds of px) for a wide range; see estimate_band.
 DisparityBand band_for_range(const StereoGeometry& g, WorkingRange range);
