@@ -100,8 +100,8 @@ check journal_lines_per_min "$per_min" "<=10" "$(le "$per_min" 10)" \
   "($lines rutd lines in $((t1 - t0)) s; all units: $all)"
 
 # 3. kill -9 of the main process: a new one within RestartSec (2 s) plus a margin of 10 s. The guest is
-# emulated (TCG): on a 2-core host busy with other builds (load average 14) systemd took 8.6 s here, 3-4 s
-# on a quiet host. The new one starts with the test switch of step 4 (one start fewer under emulation).
+# emulated (TCG): on a 2-core host busy with other builds (load average 14) it took 8.6 s.
+# The new one starts with the test switch of step 4 (one start fewer under emulation).
 stall_dropin 0
 since=$(date +%s)
 pid=$(prop MainPID)
