@@ -123,14 +123,20 @@ YAML::Node open_yaml(const std::string& path, const std::string& text) {
   return root;
 }
 
-YAML::Node require(const YAML::Node& root, const std::string& path, const std::string& key) {
-  YAML::Node node;
-  for (const auto& kv : root) {  // not root[key]: that would compare keys that are lists or maps as text
-    if (kv.first.IsScalar() && kv.first.Scalar() == key) {
-      node = kv.second;
-      break;
+// The value of `key` in a mapping, or an undefined node. Not map[key]: on a const node yaml-cpp returns
+// an invalid node for a missing key, which throws YAML::InvalidNode on the next question (found by
+// fuzzing), and it would compare keys that are lists or maps as text.
+YAML::Node child(const YAML::Node& map, const std::string& key) {
+  if (map.IsMap()) {
+    for (const auto& kv : map) {
+      if (kv.first.IsScalar() && kv.first.Scalar() == key) return kv.second;
     }
   }
+  return YAML::Node(YAML::NodeType::Undefined);
+}
+
+YAML::Node require(const YAML::Node& root, const std::string& path, const std::string& key) {
+  const YAML::Node node = child(root, key);
   if (!node.IsDefined() || node.IsNull()) throw InputError(path, key, "missing");
   return node;
 }
@@ -175,7 +181,7 @@ cv::Mat read_sequence(const YAML::Node& seq, int rows, int cols, const std::stri
 }
 
 int read_matrix_size(const YAML::Node& matrix, const char* name, const std::string& path, const std::string& key) {
-  const YAML::Node node = matrix[name];
+  const YAML::Node node = child(matrix, name);
   long long value = 0;
   if (!node.IsScalar() || scalar_kind(node) != ScalarKind::Integer || !parse_whole(node.Scalar(), value) ||
       value <= 0 || value > std::numeric_limits<int>::max()) {
@@ -196,11 +202,11 @@ cv::Mat read_matrix(const YAML::Node& root, const std::string& path, const std::
   }
   const int rows = read_matrix_size(node, "rows", path, key);
   const int cols = read_matrix_size(node, "cols", path, key);
-  const YAML::Node dt = node["dt"];
+  const YAML::Node dt = child(node, "dt");
   if (!dt.IsScalar() || dt.Scalar().size() != 1 || dt.Scalar().find_first_not_of("ucwsifd") != std::string::npos) {
     throw InputError(path, key, "'dt' must be a single-channel element type such as d");
   }
-  const YAML::Node data = node["data"];
+  const YAML::Node data = child(node, "data");
   if (!data.IsSequence()) throw InputError(path, key, "'data' must be a sequence of numbers");
   return read_sequence(data, rows, cols, path, key);
 }
