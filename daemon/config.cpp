@@ -84,7 +84,7 @@ class Section {
   void finish() const {
     if (!node_ || !node_.IsMap()) return;
     for (const auto& kv : node_) {
-      const std::string key = kv.first.as<std::string>();
+      const std::string key = key_text(kv.first);
       if (!known_.count(key)) {
         std::string known;
         for (const auto& k : known_) known += (known.empty() ? "" : ", ") + k;
@@ -102,8 +102,15 @@ class Section {
   YAML::Node present(const char* key) const {
     if (!node_ || !node_.IsMap()) return YAML::Node(YAML::NodeType::Undefined);
     for (const auto& kv : node_)
-      if (kv.first.as<std::string>() == key) return kv.second;
+      if (key_text(kv.first) == key) return kv.second;
     return YAML::Node(YAML::NodeType::Undefined);
+  }
+  // A key is a plain name. YAML also allows a list or a mapping as a key ("? [a, b]: 1"), which
+  // as<std::string>() would throw on as a YAML::BadConversion that no caller expects (found by fuzzing).
+  std::string key_text(const YAML::Node& key) const {
+    if (!key.IsScalar())
+      fail_at(key, path_.empty() ? "(top level)" : path_, "a key must be a plain name, got '" + text(key) + "'");
+    return key.Scalar();
   }
   std::string name(const char* key) const { return path_.empty() ? key : path_ + "." + key; }
   static std::string text(const YAML::Node& n) {

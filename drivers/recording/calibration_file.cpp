@@ -1,6 +1,6 @@
 // Calibration file reading, checking and writing (DESIGN.md, Formats).
 //
-// Matrices are parsed element by element rather than with FileNode >> Mat, so that a bad file gets one
+// Matrices are parsed element by element, so that a bad file gets one
 // message naming the key and the element instead of an OpenCV assertion. The same checks run before
 // saving, so save_calibration never writes a file that load_calibration would refuse.
 #include "recording/calibration_file.hpp"
@@ -10,13 +10,16 @@
 
 #include <algorithm>
 #include <cerrno>
+#include <charconv>
 #include <cmath>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <sstream>
 
 #include <opencv2/calib3d.hpp>
+#include <yaml-cpp/yaml.h>
 
 #include "core/input_error.hpp"
 
@@ -30,13 +33,55 @@ constexpr double kRotationTolerance = 1e-4;
 // Below this the rig cannot triangulate; the usual cause is T written in metres instead of mm.
 constexpr double kMinBaselineMm = 1.0;
 
-std::string describe_node(const cv::FileNode& node) {
-  if (node.isString()) return "the string '" + node.string() + "'";
-  if (node.isInt()) return "the integer " + std::to_string(node.operator int());
-  if (node.isReal()) return "the number " + std::to_string(node.real());
-  if (node.isSeq()) return "a sequence";
-  if (node.isMap()) return "a map";
-  return "an empty value";
+// A scalar as the file's reader sees it: OpenCV's FileStorage types an unquoted scalar as an integer, a
+// real or a string; a quoted one is always a string.
+enum class ScalarKind { Integer, Real, String };
+
+bool parse_whole(std::string_view text, long long& out) {
+  if (!text.empty() && text.front() == '+') text.remove_prefix(1);
+  const auto [end, error] = std::from_chars(text.data(), text.data() + text.size(), out);
+  return error == std::errc() && end == text.data() + text.size() && !text.empty();
+}
+
+// Decimal or scientific notation (OpenCV writes "0." and "1.4102597656250000e+03"), or YAML's .nan/.inf.
+bool parse_real(std::string_view text, double& out) {
+  std::string_view body = text;
+  const bool negative = !body.empty() && body.front() == '-';
+  if (!body.empty() && (body.front() == '+' || body.front() == '-')) body.remove_prefix(1);
+  if (body == ".nan" || body == ".NaN" || body == ".NAN") {
+    out = std::numeric_limits<double>::quiet_NaN();
+    return text == body;
+  }
+  if (body == ".inf" || body == ".Inf" || body == ".INF") {
+    out = negative ? -std::numeric_limits<double>::infinity() : std::numeric_limits<double>::infinity();
+    return true;
+  }
+  if (body.empty() || body.front() == '+' || body.front() == '-') return false;
+  const auto [end, error] = std::from_chars(text.data() + (text.size() - body.size()), text.data() + text.size(), out);
+  if (error != std::errc() || end != text.data() + text.size()) return false;
+  if (negative) out = -out;
+  return true;
+}
+
+ScalarKind scalar_kind(const YAML::Node& node) {
+  if (node.Tag() == "!") return ScalarKind::String;  // quoted
+  long long integer = 0;
+  double real = 0.0;
+  if (parse_whole(node.Scalar(), integer)) return ScalarKind::Integer;
+  if (parse_real(node.Scalar(), real)) return ScalarKind::Real;
+  return ScalarKind::String;
+}
+
+std::string describe_node(const YAML::Node& node) {
+  if (node.IsSequence()) return "a sequence";
+  if (node.IsMap()) return "a map";
+  if (!node.IsScalar()) return "an empty value";
+  switch (scalar_kind(node)) {
+    case ScalarKind::Integer: return "the integer " + node.Scalar();
+    case ScalarKind::Real: return "the number " + node.Scalar();
+    case ScalarKind::String: break;
+  }
+  return "the string '" + node.Scalar() + "'";
 }
 
 std::string format_number(double value) {
@@ -53,58 +98,75 @@ std::string read_text(const std::string& path) {
   std::ostringstream text;
   text << in.rdbuf();
   if (in.bad()) throw InputError(path, "file", "read error");
-  if (text.str().empty()) throw InputError(path, "file", "file is empty");
   return text.str();
 }
 
-// OpenCV's parse errors carry "(LINE): what" in the function slot; turn that into a "line N" field.
-InputError parse_error(const std::string& path, const cv::Exception& e) {
-  const std::string& detail = e.func.rfind('(', 0) == 0 ? e.func : e.err;
-  const std::size_t close = detail.find("): ");
-  if (detail.rfind('(', 0) == 0 && close != std::string::npos) {
-    return InputError(path, "line " + detail.substr(1, close - 1),
-                      detail.substr(close + 3) + " (not a valid OpenCV FileStorage YAML file)");
+// The file is read with yaml-cpp, not with OpenCV's FileStorage: OpenCV 4.6's YAML reader hangs in an
+// endless loop on some malformed files (e.g. "%YAML:1.0\n   t:d\n1, -\n ") and throws std::length_error
+// on others, both found by fuzzing (tests/fuzz/fuzz_calibration.cpp). The format stays OpenCV's: the
+// "%YAML:1.0" line (an unknown directive to yaml-cpp, which skips it), !!opencv-matrix maps of rows,
+// cols, dt and data, and OpenCV still writes the file (save_calibration) and reads it back in the tests.
+YAML::Node open_yaml(const std::string& path, const std::string& text) {
+  if (text.rfind("%YAML", 0) != 0) {
+    throw InputError(path, "file", "not an OpenCV FileStorage file (expected '%YAML:1.0' and keys)");
   }
-  return InputError(path, "file", "not an OpenCV FileStorage file (expected '%YAML:1.0' and keys): " + detail);
-}
-
-// Opens from memory so that OpenCV neither logs to stderr nor names a temporary in its message.
-cv::FileStorage open_storage(const std::string& path, const std::string& text) {
+  YAML::Node root;
   try {
-    cv::FileStorage storage(text, cv::FileStorage::READ | cv::FileStorage::MEMORY);
-    if (storage.isOpened() && storage.root().isMap()) return storage;
-  } catch (const cv::Exception& e) {
-    throw parse_error(path, e);
+    root = YAML::Load(text);
+  } catch (const YAML::Exception& e) {
+    throw InputError(path, "line " + std::to_string(e.mark.line + 1),
+                     e.msg + " (not a valid OpenCV FileStorage YAML file)");
   }
-  throw InputError(path, "file", "not an OpenCV FileStorage file (expected '%YAML:1.0' and keys)");
+  if (!root.IsMap()) {
+    throw InputError(path, "file", "not an OpenCV FileStorage file (expected '%YAML:1.0' and keys)");
+  }
+  return root;
 }
 
-cv::FileNode require(const cv::FileNode& root, const std::string& path, const std::string& key) {
-  cv::FileNode node = root[key];
-  if (node.empty() || node.isNone()) throw InputError(path, key, "missing");
+// The value of `key` in a mapping, or an undefined node. Not map[key]: on a const node yaml-cpp returns
+// an invalid node for a missing key, which throws YAML::InvalidNode on the next question (found by
+// fuzzing), and it would compare keys that are lists or maps as text.
+YAML::Node child(const YAML::Node& map, const std::string& key) {
+  if (map.IsMap()) {
+    for (const auto& kv : map) {
+      if (kv.first.IsScalar() && kv.first.Scalar() == key) return kv.second;
+    }
+  }
+  return YAML::Node(YAML::NodeType::Undefined);
+}
+
+YAML::Node require(const YAML::Node& root, const std::string& path, const std::string& key) {
+  const YAML::Node node = child(root, key);
+  if (!node.IsDefined() || node.IsNull()) throw InputError(path, key, "missing");
   return node;
 }
 
-int read_image_dimension(const cv::FileNode& root, const std::string& path, const std::string& key) {
-  const cv::FileNode node = require(root, path, key);
-  if (!node.isInt()) throw InputError(path, key, "expected an integer, found " + describe_node(node));
-  const int value = node;
-  if (value <= 0) throw InputError(path, key, "must be positive, found " + std::to_string(value));
-  return value;
+int read_integer(const YAML::Node& node, const std::string& what, const std::string& path, const std::string& key) {
+  long long value = 0;
+  if (!node.IsScalar() || scalar_kind(node) != ScalarKind::Integer || !parse_whole(node.Scalar(), value)) {
+    throw InputError(path, key, what + "expected an integer, found " + describe_node(node));
+  }
+  if (value <= 0) throw InputError(path, key, what + "must be positive, found " + node.Scalar());
+  if (value > std::numeric_limits<int>::max()) throw InputError(path, key, what + "is too large: " + node.Scalar());
+  return static_cast<int>(value);
 }
 
-double read_element(const cv::FileNode& element, const std::string& path, const std::string& key, std::size_t index) {
-  if (!element.isInt() && !element.isReal()) {
+int read_image_dimension(const YAML::Node& root, const std::string& path, const std::string& key) {
+  return read_integer(require(root, path, key), "", path, key);
+}
+
+double read_element(const YAML::Node& element, const std::string& path, const std::string& key, std::size_t index) {
+  double value = 0.0;
+  if (!element.IsScalar() || scalar_kind(element) == ScalarKind::String || !parse_real(element.Scalar(), value)) {
     throw InputError(path, key, "element " + std::to_string(index) + " is not a number: " + describe_node(element));
   }
-  const double value = element.real();
   if (!std::isfinite(value)) {
     throw InputError(path, key, "element " + std::to_string(index) + " is not finite");
   }
   return value;
 }
 
-cv::Mat read_sequence(const cv::FileNode& seq, int rows, int cols, const std::string& path, const std::string& key) {
+cv::Mat read_sequence(const YAML::Node& seq, int rows, int cols, const std::string& path, const std::string& key) {
   if (static_cast<std::size_t>(rows) * static_cast<std::size_t>(cols) != seq.size()) {
     throw InputError(path, key,
                      "data holds " + std::to_string(seq.size()) + " values but rows x cols is " + std::to_string(rows) +
@@ -118,30 +180,34 @@ cv::Mat read_sequence(const cv::FileNode& seq, int rows, int cols, const std::st
   return values;
 }
 
-int read_matrix_size(const cv::FileNode& matrix, const char* name, const std::string& path, const std::string& key) {
-  const cv::FileNode node = matrix[name];
-  if (!node.isInt() || static_cast<int>(node) <= 0) {
+int read_matrix_size(const YAML::Node& matrix, const char* name, const std::string& path, const std::string& key) {
+  const YAML::Node node = child(matrix, name);
+  long long value = 0;
+  if (!node.IsScalar() || scalar_kind(node) != ScalarKind::Integer || !parse_whole(node.Scalar(), value) ||
+      value <= 0 || value > std::numeric_limits<int>::max()) {
     throw InputError(path, key, std::string("'") + name + "' must be a positive integer");
   }
-  return node;
+  return static_cast<int>(value);
 }
 
 // Reads an !!opencv-matrix block, or a plain sequence of numbers as a 1xN matrix. Returns CV_64F.
-cv::Mat read_matrix(const cv::FileNode& root, const std::string& path, const std::string& key) {
-  const cv::FileNode node = require(root, path, key);
-  if (node.isSeq()) return read_sequence(node, 1, static_cast<int>(node.size()), path, key);
-  if (!node.isMap()) {
+cv::Mat read_matrix(const YAML::Node& root, const std::string& path, const std::string& key) {
+  const YAML::Node node = require(root, path, key);
+  if (node.IsSequence()) {
+    if (node.size() == 0) throw InputError(path, key, "expected a matrix, found an empty sequence");
+    return read_sequence(node, 1, static_cast<int>(node.size()), path, key);
+  }
+  if (!node.IsMap()) {
     throw InputError(path, key, "expected a matrix (!!opencv-matrix), found " + describe_node(node));
   }
   const int rows = read_matrix_size(node, "rows", path, key);
   const int cols = read_matrix_size(node, "cols", path, key);
-  const cv::FileNode dt = node["dt"];
-  if (!dt.isString() || std::string(dt).find_first_not_of("ucwsifd") != std::string::npos ||
-      std::string(dt).size() != 1) {
+  const YAML::Node dt = child(node, "dt");
+  if (!dt.IsScalar() || dt.Scalar().size() != 1 || dt.Scalar().find_first_not_of("ucwsifd") != std::string::npos) {
     throw InputError(path, key, "'dt' must be a single-channel element type such as d");
   }
-  const cv::FileNode data = node["data"];
-  if (!data.isSeq()) throw InputError(path, key, "'data' must be a sequence of numbers");
+  const YAML::Node data = child(node, "data");
+  if (!data.IsSequence()) throw InputError(path, key, "'data' must be a sequence of numbers");
   return read_sequence(data, rows, cols, path, key);
 }
 
@@ -208,7 +274,7 @@ void check_rotation(const cv::Matx33d& r, const std::string& path) {
   }
 }
 
-cv::Matx33d read_rotation(const cv::FileNode& root, const std::string& path) {
+cv::Matx33d read_rotation(const YAML::Node& root, const std::string& path) {
   const cv::Mat m = read_matrix(root, path, "R");
   if (m.total() == 3 && (m.rows == 1 || m.cols == 1)) {  // Rodrigues vector
     cv::Matx33d r;
@@ -231,7 +297,7 @@ void check_translation(const cv::Vec3d& t, const std::string& path) {
   }
 }
 
-cv::Vec3d read_translation(const cv::FileNode& root, const std::string& path) {
+cv::Vec3d read_translation(const YAML::Node& root, const std::string& path) {
   const cv::Mat m = read_matrix(root, path, "T");
   if (m.total() != 3 || (m.rows != 1 && m.cols != 1)) {
     throw InputError(path, "T", "expected a 3x1 or 1x3 translation, found " + shape_of(m));
@@ -304,9 +370,11 @@ void write_atomically(const std::string& path, const std::string& text) {
 
 }  // namespace
 
-StereoCalibration load_calibration(const std::string& path) {
-  const cv::FileStorage storage = open_storage(path, read_text(path));
-  const cv::FileNode root = storage.root();
+StereoCalibration load_calibration(const std::string& path) { return parse_calibration(read_text(path), path); }
+
+StereoCalibration parse_calibration(const std::string& text, const std::string& path) {
+  if (text.empty()) throw InputError(path, "file", "file is empty");
+  const YAML::Node root = open_yaml(path, text);
   StereoCalibration c;
   c.image_size.width = read_image_dimension(root, path, "image_width");
   c.image_size.height = read_image_dimension(root, path, "image_height");

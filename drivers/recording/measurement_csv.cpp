@@ -155,6 +155,10 @@ bool MeasurementCsvWriter::write(std::uint64_t seq, std::int64_t t_ns, const Rut
 MeasurementCsv read_measurement_csv(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   if (!in) throw InputError(path, "file", "cannot open");
+  return read_measurement_csv(in, path);
+}
+
+MeasurementCsv read_measurement_csv(std::istream& in, const std::string& path) {
   std::string line;
   if (!std::getline(in, line)) throw InputError(path, "line 1", "missing header (file is empty)");
   if (!line.empty() && line.back() == '\r') line.pop_back();

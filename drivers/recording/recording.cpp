@@ -13,6 +13,7 @@
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
+#include <optional>
 
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -97,14 +98,19 @@ void image_path(std::string& out, const std::string& dir, const char* side, std:
   out.append(name);
 }
 
-// Reads a whole file into `bytes` (capacity reused). On failure returns false with errno set.
-bool read_file(const std::string& path, std::vector<char>& bytes) {
+// Reads a whole file into `bytes` (capacity reused). On failure returns false with errno set: EFBIG for
+// a file larger than `max_bytes`, which is refused before anything is allocated for it.
+bool read_file(const std::string& path, std::vector<char>& bytes, std::uint64_t max_bytes) {
   const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
   if (fd < 0) return false;
   struct stat info {};
   bool ok = ::fstat(fd, &info) == 0;
   if (ok && info.st_size <= 0) {
     errno = S_ISREG(info.st_mode) ? ENODATA : EISDIR;
+    ok = false;
+  }
+  if (ok && static_cast<std::uint64_t>(info.st_size) > max_bytes) {
+    errno = EFBIG;
     ok = false;
   }
   if (ok) {
@@ -125,6 +131,26 @@ bool read_file(const std::string& path, std::vector<char>& bytes) {
   ::close(fd);
   errno = saved;
   return ok;
+}
+
+// The PNG signature, then the IHDR chunk: length 13, "IHDR", width and height (big-endian, 31 bits).
+constexpr unsigned char kPngSignature[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1A, '\n'};
+
+bool is_png(const std::vector<char>& bytes) {
+  return bytes.size() >= sizeof kPngSignature && std::memcmp(bytes.data(), kPngSignature, sizeof kPngSignature) == 0;
+}
+
+// The size a PNG's header declares, or nothing when the header is cut off (the decoder then refuses it).
+std::optional<cv::Size> png_header_size(const std::vector<char>& bytes) {
+  if (bytes.size() < 24 || std::memcmp(bytes.data() + 12, "IHDR", 4) != 0) return std::nullopt;
+  const auto be32 = [&](std::size_t at) {
+    std::uint32_t v = 0;
+    for (std::size_t i = 0; i < 4; ++i) v = v << 8 | static_cast<unsigned char>(bytes[at + i]);
+    return v;
+  };
+  const std::uint32_t width = be32(16), height = be32(20);
+  if (width > 0x7FFFFFFF || height > 0x7FFFFFFF) return std::nullopt;
+  return cv::Size(static_cast<int>(width), static_cast<int>(height));
 }
 
 }  // namespace
@@ -269,7 +295,7 @@ bool ReplaySource::reject(const std::string& message) {
 }
 
 ReplaySource::LineResult ReplaySource::bad(LineResult kind, const std::string& message) {
-  error_ = frames_path_ + ": line " + std::to_string(line_number_) + ": " + message;
+  error_ = one_line(frames_path_) + ": line " + std::to_string(line_number_) + ": " + one_line(message);
   return kind;
 }
 
@@ -282,7 +308,21 @@ bool ReplaySource::load_image(std::string_view relative, const char* side, cv::M
                   "' must be relative to the recording folder");
   }
   image_path_.assign(dir_).append("/").append(relative);
-  if (!read_file(image_path_, file_bytes_)) return reject("cannot read " + image() + ": " + errno_text());
+  // No PNG of the calibrated size comes near this (16-bit RGBA stored uncompressed is 8 bytes a pixel):
+  // a frames.csv listing some huge file gets an error instead of an allocation of its size.
+  const std::uint64_t max_bytes = 16ull * static_cast<std::uint64_t>(calibration_.image_size.area()) + (1u << 20);
+  if (!read_file(image_path_, file_bytes_, max_bytes)) return reject("cannot read " + image() + ": " + errno_text());
+  // Recordings hold PNG only. Anything else is refused before OpenCV sees it: imdecode would hand it to
+  // whichever of its other decoders (JPEG 2000, TIFF, OpenEXR ...) claims it, each a parser of its own
+  // that writes to stderr. A header larger than the calibration is refused before decoding too, so a
+  // corrupt header cannot make replay allocate gigabytes (smaller ones get check_pair's message).
+  if (!is_png(file_bytes_)) return reject(image() + " is not a PNG image");
+  if (const auto header = png_header_size(file_bytes_);
+      header && (header->width > calibration_.image_size.width || header->height > calibration_.image_size.height)) {
+    return reject(image() + " is " + std::to_string(header->width) + "x" + std::to_string(header->height) +
+                  " (PNG header) but calibration says " + std::to_string(calibration_.image_size.width) + "x" +
+                  std::to_string(calibration_.image_size.height));
+  }
   try {
     cv::imdecode(cv::_InputArray(file_bytes_.data(), static_cast<int>(file_bytes_.size())), cv::IMREAD_UNCHANGED,
                  &decoded_);

@@ -82,6 +82,10 @@ bool TruthCsvWriter::append(const RutTruth& t, std::int64_t t_ns) {
 std::vector<RutTruth> read_truth_csv(const std::string& path, std::vector<std::int64_t>* t_ns) {
   std::ifstream in(path);
   if (!in) throw InputError(path, "file", std::string("cannot open: ") + std::strerror(errno));
+  return read_truth_csv(in, path, t_ns);
+}
+
+std::vector<RutTruth> read_truth_csv(std::istream& in, const std::string& path, std::vector<std::int64_t>* t_ns) {
   std::string text;
   if (!std::getline(in, text)) throw InputError(path, "file", "file is empty");
   if (!text.empty() && text.back() == '\r') text.pop_back();

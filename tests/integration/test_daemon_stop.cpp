@@ -39,6 +39,14 @@ TEST(DaemonStop, SigtermDrainsAndExitsZeroWithinOneSecond) {
   argv.push_back(nullptr);
   pid_t pid = 0;
   ASSERT_EQ(posix_spawn(&pid, RUTD_BINARY, nullptr, nullptr, argv.data(), environ), 0);
+  // A failed assertion below returns early: the daemon must not outlive the test (an orphan holding
+  // CTest's output pipe makes CTest wait for it forever).
+  struct Reaper {
+    pid_t& pid;
+    ~Reaper() {
+      if (pid > 0 && kill(pid, SIGKILL) == 0) waitpid(pid, nullptr, 0);
+    }
+  } reaper{pid};
 
   // Wait for measurements to flow (the first frames render and prime the pipeline).
   const auto deadline = std::chrono::steady_clock::now() + 60s;
@@ -50,6 +58,7 @@ TEST(DaemonStop, SigtermDrainsAndExitsZeroWithinOneSecond) {
   ASSERT_EQ(kill(pid, SIGTERM), 0);
   int status = 0;
   ASSERT_EQ(waitpid(pid, &status, 0), pid);
+  pid = 0;  // reaped
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   std::printf("exit %.3f s after SIGTERM\n", seconds);
   ASSERT_TRUE(WIFEXITED(status));

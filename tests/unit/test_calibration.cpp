@@ -178,8 +178,17 @@ std::vector<BadCase> bad_cases() {
   std::vector<BadCase> cases = {
       {"empty", "", "file", "file is empty"},
       {"plain_text", "hello world\n", "file", "not an OpenCV FileStorage file"},
-      {"broken_yaml", "%YAML:1.0\n---\nimage_width: 1280\nM1: [ 1, 2\n", "line 4",
-       "Missing , between the elements (not a valid OpenCV FileStorage YAML file)"},
+      {"broken_yaml", "%YAML:1.0\n---\nimage_width: 1280\nM1: [ 1, 2\n", "line 5",
+       "end of sequence flow not found (not a valid OpenCV FileStorage YAML file)"},
+      // Found by fuzzing: OpenCV 4.6's own YAML reader loops forever on the first and throws
+      // std::length_error on the second (an empty key); the file is now read with yaml-cpp.
+      {"opencv_reader_loops", "%YAML:1.0\n   t:d\n1, -\n ", "file", "not an OpenCV FileStorage file"},
+      {"opencv_reader_length_error", "%YAML:1.0\n   t:d\n   :", "line 3", "illegal map value"},
+      {"matrix_without_rows", stereo_calib_text("M1", "M1: !!opencv-matrix\n   cols: 3\n   dt: d\n   data: [ 1. ]\n"),
+       "M1", "'rows' must be a positive integer"},
+      {"matrix_without_data", stereo_calib_text("M1", "M1: !!opencv-matrix\n   rows: 1\n   cols: 1\n   dt: d\n"), "M1",
+       "'data' must be a sequence of numbers"},
+      {"key_is_a_list", "%YAML:1.0\n? [image_width]\n: 1280\n", "image_width", "missing"},
       {"width_text", stereo_calib_text("image_width", "image_width: wide\n"), "image_width",
        "expected an integer, found the string 'wide'"},
       {"width_real", stereo_calib_text("image_width", "image_width: 1280.5\n"), "image_width", "expected an integer"},

@@ -159,6 +159,21 @@ TEST(Config, ImpossibleValuesAreNamed) {
   expect_error("logging:\n  level: chatty\n", {"logging.level", "chatty"});
 }
 
+// Found by fuzzing: a key that is a list or a mapping made yaml-cpp throw YAML::BadConversion past every
+// caller; and a value quoting a line break gave a two-line error.
+TEST(Config, OddKeysAndLineBreaksGiveOneLineErrors) {
+  expect_error("? [a, b]\n: 1\n", {"test.yaml: line 1, (top level): a key must be a plain name, got '[a, b]'"});
+  expect_error("pipeline:\n  ? {x: 1}\n  : 2\n", {"line 2, pipeline: a key must be a plain name"});
+  try {
+    parse_config("measurement:\n  engine: \"cu\\nda\"\n", "test.yaml");
+    ADD_FAILURE() << "no error";
+  } catch (const InputError& e) {
+    EXPECT_EQ(std::string(e.what()),
+              "test.yaml: line 2, measurement.engine: expected bm, sgbm, sgbm3way, hh4, hh, gpu or sgmref, got "
+              "'cu\\nda'");
+  }
+}
+
 TEST(Config, MissingCalibrationAndFolderAreNamed) {
   expect_error("source:\n  type: aravis\n", {"calibration", "calibration file"});
   expect_error("source:\n  type: replay\n", {"source.replay.dir", "recording folder"});

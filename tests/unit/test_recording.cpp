@@ -362,6 +362,32 @@ TEST_F(ReplayErrorTest, CorruptImageIsNamed) {
   expect_error(2, "left image " + dir_.string() + "/left/00000001.png is not a readable image");
 }
 
+// Found by fuzzing: replay handed any bytes to OpenCV's imdecode, whose other decoders took them (a
+// JPEG 2000 signature here, whose decoder writes its complaints to stderr). Recordings hold PNG only.
+// And a PNG header claiming 20000x20000 is refused before decoding, instead of allocating 400 MB first.
+TEST_F(ReplayErrorTest, OnlyPngImagesNoLargerThanTheCalibrationAreDecoded) {
+  write_text(dir_ / "left/00000001.png", std::string("\0\0\0\x0cjP  \r\n\x87\n", 12) + "then garbage");
+  const char huge[] =
+      "\x89\x50\x4e\x47\x0d\x0a\x1a\x0a\x00\x00\x00\x0d\x49\x48\x44\x52\x00\x00\x4e\x20\x00\x00\x4e\x20\x08\x00\x00"
+      "\x00\x00\xc6\x1b\x19\xe5\x00\x00\x00\x00\x49\x45\x4e\x44\xae\x42\x60\x82";
+  write_text(dir_ / "right/00000002.png", std::string(huge, sizeof huge - 1));
+  replay(line(1) + line(2) + line(3));
+  expect_error(2, "left image " + dir_.string() + "/left/00000001.png is not a PNG image");
+  expect_error(
+      3, "right image " + dir_.string() + "/right/00000002.png is 20000x20000 (PNG header) but calibration says 64x48");
+  expect_pair(3);
+  expect_end(false);
+}
+
+// A line may list any file; one of 1 GiB (sparse here) is refused by its size, not read into memory.
+TEST_F(ReplayErrorTest, HugeImageFileIsRefusedUnread) {
+  const fs::path huge = dir_ / "left/00000001.png";
+  fs::resize_file(huge, 1ull << 30);
+  replay(line(1) + line(2));
+  expect_error(2, "cannot read left image " + huge.string() + ": File too large");
+  expect_pair(2);
+}
+
 TEST_F(ReplayErrorTest, SizeAndTypeMismatches) {
   cv::imwrite((dir_ / "left/small.png").string(), make_pair(9, CV_8UC1, {32, 24}).left);
   cv::imwrite((dir_ / "right/small.png").string(), make_pair(9, CV_8UC1, {32, 24}).right);

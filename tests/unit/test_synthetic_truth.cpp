@@ -255,5 +255,14 @@ TEST_F(TruthCsv, BadFilesNameFileAndLine) {
   EXPECT_THROW(TruthCsvWriter("/nonexistent-dir/truth.csv"), InputError);
 }
 
+// Found by fuzzing: a CR (or any control byte) inside a field was quoted into the message as is, so the
+// error spanned two lines on a terminal and in the journal. It is written escaped.
+TEST_F(TruthCsv, ErrorQuotingABadFieldIsOneLine) {
+  write(path("cr.csv"), std::string(kTruthCsvHeader) + "\n0,0,50,200,12,12,75\r00,0,30,0,0\n");
+  expect_error(path("cr.csv"), "line 2", "field 'area_mm2': not a number: '75\\r00'");
+  write(path("bell.csv"), std::string(kTruthCsvHeader) + "\n0,0,50,200,12,12,7500,0,30,0,\a\x1b[2J\n");
+  expect_error(path("bell.csv"), "line 2", "field 'y_mm': not a number: '\\x07\\x1B[2J'");
+}
+
 }  // namespace
 }  // namespace rutd

@@ -13,6 +13,8 @@ namespace rutd {
 // file, missing key, wrong matrix shape or type, non-finite value, non-positive focal length or image
 // size, R not a rotation, zero baseline.
 StereoCalibration load_calibration(const std::string& path);
+// The same checks on the file's text, already read; `path` names the file in messages.
+StereoCalibration parse_calibration(const std::string& text, const std::string& path);
 
 // Writes the file in the same format (readable by load_calibration and by OpenCV's FileStorage).
 // Throws InputError if the file cannot be written.

@@ -81,5 +81,7 @@ struct MeasurementCsv {
 // the file and "line N" for a missing file, a wrong header, a wrong field count, an unknown status, a
 // field that is not a number, or a value present where the status says it cannot be.
 MeasurementCsv read_measurement_csv(const std::string& path);
+// The same from a stream the caller opened; `path` names it in messages.
+MeasurementCsv read_measurement_csv(std::istream& in, const std::string& path);
 
 }  // namespace rutd

@@ -36,5 +36,7 @@ class TruthCsvWriter {
 // line 1) for a wrong header, a wrong number of fields or a field that is not a number; and
 // (file, "file") when it cannot be opened or is empty. `t_ns`, when given, receives each line's t_ns.
 std::vector<RutTruth> read_truth_csv(const std::string& path, std::vector<std::int64_t>* t_ns = nullptr);
+// The same from a stream the caller opened; `path` names it in messages.
+std::vector<RutTruth> read_truth_csv(std::istream& in, const std::string& path, std::vector<std::int64_t>* t_ns);
 
 }  // namespace rutd
