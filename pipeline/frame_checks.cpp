@@ -90,22 +90,28 @@ double median_disparity(const cv::Mat& disparity, int row_begin, int row_end, in
   return median_of(values);
 }
 
-// Vertical offset (px, right row - left row) of the right strip's features, median over the blocks
-// that correlate; NaN when none does. An offset at the end of the search range is reported there (a
-// lower bound of the real one).
-double vertical_disparity(const cv::Mat& left, const cv::Mat& right, const cv::Mat& disparity, int row_begin,
-                          int row_end, double strip_disparity, DisparityBand band, const ConditionConfig& c,
-                          FrameCheckScratch& s) {
+// Vertical offsets (px, right row - left row) of the right strip's features in the blocks that
+// correlate. A turned camera moves rows by different amounts across the strip (a roll changes sign at
+// the principal point), so the largest offset is reported and the count beyond the limit kept. An
+// offset at the end of the search range is reported there (a lower bound of the real one).
+struct VerticalOffsets {
+  double largest = kNaN;  // signed offset of largest magnitude; NaN when no block correlates
+  int found = 0;
+  int beyond = 0;  // blocks whose |offset| exceeds max_vertical_disparity_px
+};
+
+VerticalOffsets vertical_disparity(const cv::Mat& left, const cv::Mat& right, const cv::Mat& disparity, int row_begin,
+                                   int row_end, double strip_disparity, DisparityBand band, const ConditionConfig& c,
+                                   FrameCheckScratch& s) {
   const int search = std::min(c.vertical_search_px, left.rows / 4);
   const int width = c.vertical_block_px;
   // Nothing matched (a calibration far off loses every match): search the whole band.
   const bool known = std::isfinite(strip_disparity);
   const int slack = known ? 2 : band.num_disparities / 2 + 2;
   if (!known) strip_disparity = band.min_disparity + 0.5 * band.num_disparities;
-  if (search < 1 || left.rows - 2 * search < 4) return kNaN;
-  std::array<float, 16> offsets{};
-  int found = 0;
-  const int blocks = std::min(c.vertical_blocks, static_cast<int>(offsets.size()));
+  VerticalOffsets out;
+  if (search < 1 || left.rows - 2 * search < 4) return out;
+  const int blocks = c.vertical_blocks;
   for (int k = 0; k < blocks; ++k) {
     // Blocks spread over the middle of the strip, where the right camera sees the same ground.
     const int x0 = static_cast<int>((0.2 + 0.6 * (k + 0.5) / blocks) * left.cols) - width / 2;
@@ -114,6 +120,10 @@ double vertical_disparity(const cv::Mat& left, const cv::Mat& right, const cv::M
     const int rx0 = x0 - static_cast<int>(std::lround(d)) - slack;
     if (x0 < 0 || x0 + width > left.cols || rx0 < 0 || rx0 + width + 2 * slack > right.cols) continue;
     const cv::Mat templ = left(cv::Rect(x0, search, width, left.rows - 2 * search));
+    // A flat block correlates equally well everywhere (a covered lens, a featureless scene).
+    cv::Scalar mean, deviation;
+    cv::meanStdDev(templ, mean, deviation);
+    if (deviation[0] < c.min_texture) continue;
     const cv::Mat area = right(cv::Rect(rx0, 0, width + 2 * slack, right.rows));
     cv::matchTemplate(area, templ, s.result, cv::TM_CCOEFF_NORMED);
     cv::Point best;
@@ -127,13 +137,12 @@ double vertical_disparity(const cv::Mat& left, const cv::Mat& right, const cv::M
       const double den = a - 2.0 * b + e;
       if (den < 0.0) dy += 0.5 * (a - e) / den;
     }
-    offsets[static_cast<std::size_t>(found++)] = static_cast<float>(dy - search);
+    const double offset = dy - search;
+    ++out.found;
+    out.beyond += std::abs(offset) > c.max_vertical_disparity_px;
+    if (!(std::abs(offset) <= std::abs(out.largest))) out.largest = offset;
   }
-  if (found == 0) return kNaN;
-  std::sort(offsets.begin(), offsets.begin() + found);
-  return found % 2
-             ? offsets[static_cast<std::size_t>(found / 2)]
-             : 0.5 * (offsets[static_cast<std::size_t>(found / 2 - 1)] + offsets[static_cast<std::size_t>(found / 2)]);
+  return out;
 }
 
 // Longest run (px) of blocks inside columns [u0, u1] flat in both cameras; `shift` maps a left block to
@@ -272,8 +281,11 @@ void check_frame(const cv::Mat& left, const cv::Mat& right, const cv::Mat& dispa
     if (textured > 0 && unmatched > c.vegetation_unmatched_share * textured) m.conditions |= kConditionVegetation;
 
     // Calibration.
-    m.vertical_disparity_px = vertical_disparity(left, right, disparity, row_begin, row_end, d0, band, c, s);
-    if (std::abs(m.vertical_disparity_px) > c.max_vertical_disparity_px) m.conditions |= kConditionCalibrationDrift;
+    // Drift when at least a third of the correlating blocks (at least one) are beyond the limit: one
+    // block's chance match cannot raise it, a roll that moves only the strip's ends can.
+    const VerticalOffsets v = vertical_disparity(left, right, disparity, row_begin, row_end, d0, band, c, s);
+    m.vertical_disparity_px = v.largest;
+    if (v.found > 0 && 3 * v.beyond >= v.found) m.conditions |= kConditionCalibrationDrift;
 
     // Water / flat patch inside the rut opening, against the texture of the ground outside it.
     if (rut.has_rut && rut.has_line) {

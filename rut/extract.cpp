@@ -431,20 +431,24 @@ RutMeasurement extract_rut(const CrossSection& section, const RutConfig& params,
   const double u_gap = unseen_excess(ws.h_fit, ws.slope, line.m, p.grid, o, out.depth_mm, norm) / std::sqrt(3.0);
   out.depth_uncertainty_mm = std::sqrt(wander * wander + u_line * u_line + u_gap * u_gap);
   const double limit = params.max_depth_uncertainty_mm;
-  out.quality = limit > 0.0 ? std::clamp(1.0 - out.depth_uncertainty_mm / (2.0 * limit), 0.0, 1.0) : 0.0;
+  const double quality = limit > 0.0 ? std::clamp(1.0 - out.depth_uncertainty_mm / (2.0 * limit), 0.0, 1.0) : 0.0;
 
   if (o.left_edge || o.right_edge) {
     out.status = RutStatus::RutAtEdge;
   } else if (out.depth_mm < min_depth || out.width_mm < params.min_rut_width_mm ||
              out.width_mm > params.max_rut_width_mm) {
     out.status = RutStatus::NoRut;
-  } else if (p.sigma > params.vegetation_roughness_mm) {
-    out.status = RutStatus::Vegetation;
-  } else if (out.depth_uncertainty_mm > limit) {
-    out.status = RutStatus::Uncertain;
-    out.conditions |= kConditionUncertain;
   } else {
-    out.status = RutStatus::Ok;
+    // A depth was found: quality says how far to trust it, whether or not it is published.
+    out.quality = quality;
+    if (p.sigma > params.vegetation_roughness_mm) {
+      out.status = RutStatus::Vegetation;
+    } else if (out.depth_uncertainty_mm > limit) {
+      out.status = RutStatus::Uncertain;
+      out.conditions |= kConditionUncertain;
+    } else {
+      out.status = RutStatus::Ok;
+    }
   }
   return out;
 }

@@ -7,7 +7,7 @@
 // are judged on the cross-section itself (rut/extract.hpp).
 //
 // Cost: one pass over every second measured row of both strips (sums per column block and a histogram)
-// and three small template matches for the vertical disparity; no allocation once the scratch has grown
+// and five small template matches for the vertical disparity; no allocation once the scratch has grown
 // to the strip width. Not thread-safe per scratch: one per frame slot.
 #include <cstdint>
 #include <vector>
@@ -50,13 +50,15 @@ struct ConditionConfig {
   double flat_ratio = 0.35;
   double flat_min_width_mm = 8.0;
   // Calibration: the vertical offset of the right strip's features against the left's, measured by
-  // normalised cross-correlation of vertical_blocks blocks over +-vertical_search_px rows (sub-pixel by
-  // a parabola). Rectification leaves a few hundredths of a pixel with a calibration that fits; DIC
-  // windows do not follow a vertical offset, so one above max_vertical_disparity_px both loses matches
-  // and biases the disparity of oblique texture.
+  // normalised cross-correlation of vertical_blocks blocks spread over the middle 60 % of the strip,
+  // over +-vertical_search_px rows (sub-pixel by a parabola). Rectification leaves a few hundredths of
+  // a pixel with a calibration that fits; DIC windows do not follow a vertical offset, so one above
+  // max_vertical_disparity_px both loses matches and biases the disparity of oblique texture. Drift is
+  // flagged when at least a third of the correlating blocks exceed it (a roll moves the strip's ends
+  // in opposite directions); RutMeasurement::vertical_disparity_px is the largest offset.
   double max_vertical_disparity_px = 0.7;
   int vertical_search_px = 8;
-  int vertical_blocks = 3;
+  int vertical_blocks = 5;
   int vertical_block_px = 24;
   double min_vertical_correlation = 0.6;  // a block whose best correlation is lower is not used
   // Vegetation: blades standing above the soil are seen by both cameras (texture in both) but do not

@@ -120,8 +120,9 @@ void reduce_to_cross_section(const cv::Mat& xyz, const RutConfig& params, CrossS
 //     seen; the profile could continue down with the slopes at the gap's edges for half its width, and
 //     that extra depth (taken as uniformly distributed, / sqrt(3)) counts where it would exceed the
 //     measured depth;
-// and quality = 1 - u / (2 max_depth_uncertainty_mm), clamped to 0..1. A rough profile is Vegetation
-// and a depth with u above the limit Uncertain (both with the depth computed but not Ok).
+// and quality = 1 - u / (2 max_depth_uncertainty_mm), clamped to 0..1 (0 unless the status is Ok,
+// Uncertain or Vegetation). A rough profile is Vegetation and a depth with u above the limit Uncertain
+// (both with the depth computed but not Ok).
 RutMeasurement extract_rut(const CrossSection& section, const RutConfig& params, RutWorkspace& ws);
 
 }  // namespace rutd

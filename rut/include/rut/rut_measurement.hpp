@@ -70,8 +70,8 @@ struct RutMeasurement {
   double valid_fraction = 0.0;  // fraction of cross-section bins with valid points, 0..1
   // Estimated standard uncertainty of depth_mm (see rut/extract.hpp), mm; NaN when no depth was found.
   double depth_uncertainty_mm = std::numeric_limits<double>::quiet_NaN();
-  // Median vertical offset of the right strip's features against the left's, px (0 for a calibration
-  // that fits); NaN when it could not be measured.
+  // Largest vertical offset of the right strip's features against the left's over the blocks measured,
+  // px (near 0 for a calibration that fits); NaN when it could not be measured.
   double vertical_disparity_px = std::numeric_limits<double>::quiet_NaN();
   // Fraction of the strip's column blocks in which that camera is obstructed, 0..1.
   double obstructed_left = 0.0;
