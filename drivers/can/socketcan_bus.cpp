@@ -10,6 +10,7 @@
 #include <cerrno>
 #include <cstring>
 #include <system_error>
+#include <utility>
 
 namespace rutd {
 
@@ -117,6 +118,8 @@ SocketCanBus::SocketCanBus(const std::string& interface) : interface_(interface)
     throw;
   }
 }
+
+SocketCanBus::SocketCanBus(int fd, std::string name) noexcept : interface_(std::move(name)), fd_(fd) {}
 
 SocketCanBus::~SocketCanBus() { ::close(fd_); }
 

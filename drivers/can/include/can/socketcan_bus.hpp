@@ -74,6 +74,10 @@ class SocketCanBus {  // not thread-safe: owned by the publisher thread
   // std::system_error whose what() names the interface if the socket cannot be opened or bound
   // (kernel without CAN support, no such interface, name too long).
   explicit SocketCanBus(const std::string& interface);
+  // Takes ownership of `fd`, an open, non-blocking datagram socket whose datagrams are struct can_frame
+  // (a socketpair standing in for the bus: the sink's frames and the error frames then pass through
+  // the same write and recv calls as on a CAN_RAW socket). For tests without kernel CAN support.
+  SocketCanBus(int fd, std::string name) noexcept;
   ~SocketCanBus();
   SocketCanBus(const SocketCanBus&) = delete;
   SocketCanBus& operator=(const SocketCanBus&) = delete;
