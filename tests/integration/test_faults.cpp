@@ -206,6 +206,7 @@ TEST_F(Faults, CameraPopTimeoutsRaiseNoCameraAndCountAsTimeouts) {
   const long long injected = number_after(text, "injected camera-pop ");
   EXPECT_GT(injected, 20);
   EXPECT_EQ(number_after(text, "timeouts "), injected) << text;
+  std::printf("  injected %lld, pipeline source timeouts %lld\n", injected, number_after(text, "timeouts "));
 }
 
 TEST_F(Faults, CorruptAndShortCameraBuffersRaiseNoCameraAndCountAsSourceErrors) {
@@ -218,6 +219,7 @@ TEST_F(Faults, CorruptAndShortCameraBuffersRaiseNoCameraAndCountAsSourceErrors) 
     ASSERT_TRUE(std::regex_search(text, m, std::regex("stopped: .* errors (\\d+)/(\\d+)/(\\d+)"))) << text;
     EXPECT_EQ(std::stoll(m[1]), injected) << text;
     EXPECT_EQ(std::stoll(m[2]), 0);
+    std::printf("  injected %lld, pipeline source errors %s\n", injected, m[1].str().c_str());
   }
 }
 
@@ -238,6 +240,8 @@ TEST_F(Faults, CanWriteErrorsRaiseCanTxDropsAndAreCounted) {
     EXPECT_EQ(std::stoll(m[queue_full ? 3 : 2]), 0) << text;
     // Every frame reported sent reached the other end of the socket, and is in the candump log.
     EXPECT_EQ(number_after(text, "peer received "), std::stoll(m[1])) << text;
+    std::printf("  injected %lld; bus: %s sent, %s dropped, %s write errors; peer received %lld\n", injected,
+                m[1].str().c_str(), m[2].str().c_str(), m[3].str().c_str(), number_after(text, "peer received "));
     DecodeSummary s;
     decode(log(), s);
     EXPECT_EQ(s.frames, std::stoll(m[1]));
@@ -275,6 +279,8 @@ TEST_F(Faults, RecordingWriteErrorsRaiseRecordingErrorWhileMeasuringGoesOn) {
     EXPECT_GT(std::stoll(m[1]), 0);
     EXPECT_GT(std::stoll(m[2]), 0);
     EXPECT_EQ(replayable_pairs(rec), std::stoull(m[1]));
+    std::printf("  injected 1; recorder: %s pairs written (all replay), %s not recorded after the failure\n",
+                m[1].str().c_str(), m[2].str().c_str());
     // Measuring went on after the recording failed.
     DecodeSummary s;
     const FlagTimeline t = timeline(decode(log(), s), "RecordingError");
@@ -286,6 +292,7 @@ TEST_F(Faults, RecordingWriteErrorsRaiseRecordingErrorWhileMeasuringGoesOn) {
       if (raised && f.message == "RutMeasurement1" && f.signals.at("RutM1_Status") == 0) ++ok_after_first;
     }
     EXPECT_GE(ok_after_first, 30) << "measuring did not go on after the recording failed";
+    std::printf("  OK measurements after RecordingError was raised: %d\n", ok_after_first);
   }
 }
 
@@ -301,6 +308,8 @@ TEST_F(Faults, ShortRecordingWritesLoseNothing) {
       << text;
   EXPECT_GT(std::stoll(m[1]), 30);
   EXPECT_EQ(replayable_pairs(rec), std::stoull(m[1]));
+  std::printf("short writes: injected %lld, %s pairs written, every one replays\n",
+              number_after(text, "injected record-write "), m[1].str().c_str());
   DecodeSummary s;
   EXPECT_EQ(timeline(decode(log(), s), "RecordingError").raised, 0);
 }
@@ -319,6 +328,7 @@ TEST_F(Faults, ImageDecodeFailuresRaiseNoCameraAndCountAsSourceErrors) {
     std::smatch m;
     ASSERT_TRUE(std::regex_search(text, m, std::regex("stopped: .* errors (\\d+)/(\\d+)/(\\d+)"))) << text;
     EXPECT_EQ(std::stoll(m[1]), injected) << text;
+    std::printf("  injected %lld, pipeline source errors %s\n", injected, m[1].str().c_str());
   }
 }
 
