@@ -319,6 +319,7 @@ TEST_F(AravisDaemon, CameraBufferFaultsAreFlaggedAndMeasuringResumes) {
         << summary;
     const long long incomplete = std::stoll(m[1]) + std::stoll(m[2]), lost = std::stoll(m[3]) + std::stoll(m[4]),
                     back = std::stoll(m[5]) + std::stoll(m[6]);
+    std::printf("  injected %lld; driver: %lld incomplete, lost %lld, back %lld\n", injected, incomplete, lost, back);
     if (std::string(fault) == "corrupt") {
       EXPECT_GE(incomplete, injected) << text;
       EXPECT_LE(incomplete, injected + 5) << "more incomplete buffers than injected\n" << text;
@@ -330,6 +331,7 @@ TEST_F(AravisDaemon, CameraBufferFaultsAreFlaggedAndMeasuringResumes) {
     if (std::string(fault) == "short") {
       ASSERT_TRUE(std::regex_search(text, m, std::regex("stopped: .* errors (\\d+)/(\\d+)/(\\d+)"))) << text;
       EXPECT_GT(std::stoll(m[1]), 10) << "short buffers must fail conversion\n" << text;
+      std::printf("  pipeline source errors %s\n", m[1].str().c_str());
     }
   }
 }
