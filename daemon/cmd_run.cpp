@@ -84,13 +84,14 @@ PipelineConfig pipeline_config(const RutdConfig& c) {
   return p;
 }
 
-int run_daemon(const RunOptions& o) {
+int run_daemon(const RunOptions& o, const RunInjection& injection) {
   // First, before any file is written: an exceeded file-size limit (RLIMIT_FSIZE) must fail the write
   // with EFBIG, which the recorder reports, instead of killing the daemon.
   std::signal(SIGXFSZ, SIG_IGN);
   const RutdConfig c = effective_config(o);
   spdlog::set_level(spdlog::level::from_str(c.logging.level));
-  std::unique_ptr<FrameSource> source = make_source(c);  // throws InputError for a bad recording/calibration
+  std::unique_ptr<FrameSource> source =
+      make_source(c, injection.faults);  // throws InputError for a bad recording/calibration
   const StereoMeasurer measurer(source->calibration(), c.measurement);
   MeasurerStages measurer_stages(measurer);
   std::optional<StallingStages> stalling;
@@ -101,12 +102,18 @@ int run_daemon(const RunOptions& o) {
   std::ostream* candump_stream = open_stream(c.sinks.candump, candump_file, "sinks.candump");
   std::ostream* csv_stream = open_stream(c.sinks.csv, csv_file, "sinks.csv");
   std::unique_ptr<SocketCanBus> bus;
-  if (!c.sinks.socketcan.empty()) bus = std::make_unique<SocketCanBus>(c.sinks.socketcan);  // throws, naming it
+  if (!c.sinks.socketcan.empty()) {
+    bus = injection.open_bus
+              ? injection.open_bus(c.sinks.socketcan)
+              : std::make_unique<SocketCanBus>(c.sinks.socketcan, injection.faults);  // throws, naming it
+  }
   // Created after every other start-up check, so a start that fails leaves no empty recording behind
   // (which would block the next start: an existing recording is refused, InputError, never overwritten).
   std::unique_ptr<FrameRecorder> recorder;
   if (!c.sinks.record.empty()) {
-    recorder = std::make_unique<FrameRecorder>(c.sinks.record, source->calibration());
+    FrameRecorderConfig recording;
+    recording.writer.faults = injection.faults;
+    recorder = std::make_unique<FrameRecorder>(c.sinks.record, source->calibration(), recording);
     source = std::make_unique<RecordingTee>(std::move(source), *recorder);
   }
   std::unique_ptr<CandumpLogWriter> log;
@@ -191,7 +198,7 @@ int run_daemon(const RunOptions& o) {
 
 }  // namespace
 
-void add_run_command(CLI::App& app, int& exit_code) {
+void add_run_command(CLI::App& app, int& exit_code, RunInjection injection) {
   auto o = std::make_shared<RunOptions>();
   CLI::App* cmd = app.add_subcommand("run", "Measure continuously and publish rut depth on CAN (the daemon)");
   cmd->add_option("--config", o->config, "Configuration file (default: the embedded one, see config/rutd.yaml)");
@@ -212,7 +219,7 @@ void add_run_command(CLI::App& app, int& exit_code) {
   cmd->add_option("--test-stall-match-after", o->test_stall_match_after,
                   "Tests only: the match stage stops returning after N pairs")
       ->group("");
-  cmd->callback([o, &exit_code] { exit_code = run_daemon(*o); });
+  cmd->callback([o, &exit_code, injection] { exit_code = run_daemon(*o, injection); });
 }
 
 }  // namespace rutd

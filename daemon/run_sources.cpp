@@ -24,8 +24,12 @@ namespace {
 // the replay sees them go backwards.
 class PacedReplaySource final : public FrameSource {
  public:
-  PacedReplaySource(std::string dir, bool paced, bool loop)
-      : dir_(std::move(dir)), paced_(paced), loop_(loop), reader_(std::make_unique<ReplaySource>(dir_)) {}
+  PacedReplaySource(std::string dir, bool paced, bool loop, IoFaults* faults)
+      : dir_(std::move(dir)),
+        paced_(paced),
+        loop_(loop),
+        faults_(faults),
+        reader_(std::make_unique<ReplaySource>(dir_, faults_)) {}
 
   SourceStatus next(StereoFrame& frame) override {
     SourceStatus s = reader_->next(frame);
@@ -34,7 +38,7 @@ class PacedReplaySource final : public FrameSource {
       // The next loop continues the time line one frame step later (recordings need it increasing).
       t_offset_ns_ = last_t_ns_ + std::max<std::int64_t>(last_t_ns_ - previous_t_ns_, 1);
       first_of_loop_ = true;
-      reader_ = std::make_unique<ReplaySource>(dir_);
+      reader_ = std::make_unique<ReplaySource>(dir_, faults_);
       started_ = false;
       s = reader_->next(frame);
     }
@@ -68,6 +72,7 @@ class PacedReplaySource final : public FrameSource {
 
   std::string dir_;
   bool paced_, loop_;
+  IoFaults* faults_;
   std::unique_ptr<ReplaySource> reader_;
   bool started_ = false;
   std::int64_t first_t_ns_ = 0;
@@ -79,12 +84,12 @@ class PacedReplaySource final : public FrameSource {
 };
 
 // Cameras: a configuration the cameras refuse is a start-up error naming the source.aravis key at fault.
-std::unique_ptr<FrameSource> make_camera_source(const RutdConfig& c) {
+std::unique_ptr<FrameSource> make_camera_source(const RutdConfig& c, IoFaults* faults) {
   StereoCalibration calibration = load_calibration(c.calibration);  // throws InputError naming the file
   try {
     auto source = std::make_unique<AravisStereoSource>(
-        c.aravis, std::move(calibration),
-        std::chrono::milliseconds(static_cast<long>(c.logging.stats_period_s * 1000)));
+        c.aravis, std::move(calibration), std::chrono::milliseconds(static_cast<long>(c.logging.stats_period_s * 1000)),
+        faults);
     for (const auto& w : source->warnings()) spdlog::warn("{}", w);
     return source;
   } catch (const CameraError& e) {
@@ -96,13 +101,14 @@ std::unique_ptr<FrameSource> make_camera_source(const RutdConfig& c) {
 
 // The synthetic rig: rendered live, or a short cycle rendered once and played at the camera rate.
 // Impossible scene parameters are a start-up error naming source.synthetic.
-std::unique_ptr<FrameSource> make_synthetic_source(const RutdConfig& c) {
+std::unique_ptr<FrameSource> make_synthetic_source(const RutdConfig& c, IoFaults* faults) {
   try {
     if (c.synthetic_cycle_frames <= 0) return std::make_unique<SyntheticSource>(c.synthetic);
     const SyntheticRenderer renderer(c.synthetic);
     const auto period = std::chrono::nanoseconds(static_cast<std::int64_t>(1e9 / c.synthetic.fps));
-    return std::make_unique<CyclingSource>(
-        renderer.calibration(), renderer.render_pairs(static_cast<std::size_t>(c.synthetic_cycle_frames)), period);
+    return std::make_unique<CyclingSource>(renderer.calibration(),
+                                           renderer.render_pairs(static_cast<std::size_t>(c.synthetic_cycle_frames)),
+                                           period, faults);
   } catch (const std::invalid_argument& e) {
     throw InputError(c.file, "source.synthetic", e.what());
   }
@@ -110,11 +116,12 @@ std::unique_ptr<FrameSource> make_synthetic_source(const RutdConfig& c) {
 
 }  // namespace
 
-std::unique_ptr<FrameSource> make_source(const RutdConfig& c) {
+std::unique_ptr<FrameSource> make_source(const RutdConfig& c, IoFaults* faults) {
   switch (c.source) {
-    case SourceKind::Synthetic: return make_synthetic_source(c);
-    case SourceKind::Replay: return std::make_unique<PacedReplaySource>(c.replay.dir, c.replay.paced, c.replay.loop);
-    case SourceKind::Aravis: return make_camera_source(c);
+    case SourceKind::Synthetic: return make_synthetic_source(c, faults);
+    case SourceKind::Replay:
+      return std::make_unique<PacedReplaySource>(c.replay.dir, c.replay.paced, c.replay.loop, faults);
+    case SourceKind::Aravis: return make_camera_source(c, faults);
   }
   throw InputError(c.file, "source.type", "unknown source");
 }

@@ -122,13 +122,13 @@ std::string describe(const PipelineStats& s) {
   int n = std::snprintf(
       buf, sizeof buf,
       "acquired %llu (%.1f Hz) published %llu (%.1f Hz, %llu ok) dropped %llu stale %llu "
-      "rejected %llu errors %llu/%llu/%llu | e2e p50 %.2f p99 %.2f max %.2f ms",
+      "rejected %llu errors %llu/%llu/%llu timeouts %llu | e2e p50 %.2f p99 %.2f max %.2f ms",
       static_cast<unsigned long long>(s.acquired), s.acquire_hz, static_cast<unsigned long long>(s.published),
       s.publish_hz, static_cast<unsigned long long>(s.published_ok), static_cast<unsigned long long>(s.dropped_total()),
       static_cast<unsigned long long>(s.stale_total()), static_cast<unsigned long long>(s.rectify_rejected),
       static_cast<unsigned long long>(s.source_errors), static_cast<unsigned long long>(s.stage_errors),
-      static_cast<unsigned long long>(s.sink_errors), ms(s.end_to_end.p50_ns), ms(s.end_to_end.p99_ns),
-      ms(s.end_to_end.max_ns));
+      static_cast<unsigned long long>(s.sink_errors), static_cast<unsigned long long>(s.source_timeouts),
+      ms(s.end_to_end.p50_ns), ms(s.end_to_end.p99_ns), ms(s.end_to_end.max_ns));
   std::string out(buf, static_cast<std::size_t>(std::clamp(n, 0, static_cast<int>(sizeof buf) - 1)));
   for (std::size_t i = 0; i < kStageCount; ++i) {
     const LatencySummary& l = s.stage_latency[i];

@@ -357,9 +357,10 @@ CameraFrameInfo AravisCamera::info(ArvBuffer* buffer) noexcept {
   return i;
 }
 
-bool AravisCamera::convert(ArvBuffer* buffer, cv::Mat& out) noexcept {
+bool AravisCamera::convert(ArvBuffer* buffer, cv::Mat& out, bool cut_short) noexcept {
   std::size_t bytes = 0;
   const void* data = arv_buffer_get_data(buffer, &bytes);
+  if (cut_short) bytes /= 2;
   const int width = arv_buffer_get_image_width(buffer), height = arv_buffer_get_image_height(buffer);
   if (data == nullptr || width != size_.width || height != size_.height) return false;
   return convert_to_grey(layout_, data, bytes, width, height, out);

@@ -80,7 +80,8 @@ class AravisCamera {
   void requeue(ArvBuffer* buffer) noexcept;
   CameraFrameInfo info(ArvBuffer* buffer) noexcept;
   // Converts the buffer's image to grey into `out` (reused when it fits). false: wrong size or format.
-  bool convert(ArvBuffer* buffer, cv::Mat& out) noexcept;
+  // cut_short (tests only): convert as if half of the payload had arrived.
+  bool convert(ArvBuffer* buffer, cv::Mat& out, bool cut_short = false) noexcept;
 
   // Fires TriggerSoftware. false when the camera did not take the command.
   bool software_trigger() noexcept;

@@ -66,7 +66,8 @@ std::unique_ptr<AravisCamera> open_camera(const CameraListing& listing, const st
 // acquisition thread, except where Connector and Reaper say otherwise.
 class AravisStereoSource::Impl {
  public:
-  Impl(const AravisSourceConfig& config, StereoCalibration calibration, std::chrono::milliseconds log_period);
+  Impl(const AravisSourceConfig& config, StereoCalibration calibration, std::chrono::milliseconds log_period,
+       IoFaults* faults);
   ~Impl();
   SourceStatus next(StereoFrame& frame);
   AravisSourceStats stats() const;
@@ -80,6 +81,7 @@ class AravisStereoSource::Impl {
     bool awaiting_first = true;
     std::int64_t lost_since_ns = 0;
     std::array<ArvBuffer*, kMaxBuffers> held{};  // buffers the pairer holds, by FrameDescriptor::buffer
+    std::array<bool, kMaxBuffers> cut_short{};   // tests: held[i] is to be converted as a short buffer
   };
 
   void adopt_connected();
@@ -113,6 +115,7 @@ class AravisStereoSource::Impl {
   std::int64_t log_period_ns_ = 0;
   std::int64_t next_log_ns_ = 0;
   AravisSourceStats stats_;
+  IoFaults* faults_;  // tests only; null in production
 };
 
 // Releases lost cameras on its own thread: Aravis blocks for seconds on a camera that does not answer.
@@ -352,13 +355,14 @@ const AravisSourceConfig& checked(const AravisSourceConfig& c) {
 }  // namespace
 
 AravisStereoSource::Impl::Impl(const AravisSourceConfig& config, StereoCalibration calibration,
-                               std::chrono::milliseconds log_period)
+                               std::chrono::milliseconds log_period, IoFaults* faults)
     : config_(checked(config)),
       calibration_(std::move(calibration)),
       signal_(std::make_shared<FrameSignal>()),
       reaper_(std::make_unique<Reaper>()),
       receiver_(std::make_unique<PairReceiver>(*this)),
-      pairer_(pairing_config(config)) {
+      pairer_(pairing_config(config)),
+      faults_(faults) {
   const cv::Size expected = calibration_.image_size;
   trigger_period_ns_ = config_.sync == CameraSync::SoftwareTrigger ? static_cast<std::int64_t>(1e9 / config_.fps) : 0;
   stall_ns_ = ms_to_ns(config_.stall_timeout_ms);
@@ -467,9 +471,17 @@ void AravisStereoSource::Impl::fire_triggers(std::int64_t now) {
 void AravisStereoSource::Impl::drain(std::size_t s) {
   Side& side = sides_[s];
   while (ArvBuffer* buffer = side.camera->try_pop()) {
+    // Tests only: a timeout loses the buffer unseen (as if it never arrived: no sign of life, so a run
+    // of them is a stall); a corrupt one is seen as incomplete; a short one fails conversion.
+    const int fault = faults_ != nullptr ? faults_->check(IoPoint::CameraPop) : 0;
+    if (fault == io_fault::kTimeout) {
+      side.camera->requeue(buffer);
+      continue;
+    }
     side.last_frame_ns = monotonic_now_ns();
     side.awaiting_first = false;
-    const CameraFrameInfo info = side.camera->info(buffer);
+    CameraFrameInfo info = side.camera->info(buffer);
+    if (fault == io_fault::kCorrupt) info.complete = false;
     if (!info.complete) {
       ++stats_.incomplete[s];
       side.camera->requeue(buffer);
@@ -482,6 +494,7 @@ void AravisStereoSource::Impl::drain(std::size_t s) {
       continue;
     }
     side.held[slot] = buffer;
+    side.cut_short[slot] = fault == io_fault::kShort;
     pairer_.push({static_cast<CameraSide>(s), info.frame_id, info.t_ns, static_cast<std::uint32_t>(slot)}, *receiver_);
   }
 }
@@ -491,8 +504,8 @@ bool AravisStereoSource::Impl::take_pair(StereoFrame& frame) {
   if (!receiver_->pop(pair)) return false;
   Side& left = sides_[0];
   Side& right = sides_[1];
-  const bool ok = left.camera->convert(left.held[pair.left.buffer], frame.left) &&
-                  right.camera->convert(right.held[pair.right.buffer], frame.right);
+  const bool ok = left.camera->convert(left.held[pair.left.buffer], frame.left, left.cut_short[pair.left.buffer]) &&
+                  right.camera->convert(right.held[pair.right.buffer], frame.right, right.cut_short[pair.right.buffer]);
   requeue(pair.left);
   requeue(pair.right);
   if (!ok) {
@@ -579,8 +592,8 @@ AravisSourceStats AravisStereoSource::Impl::stats() const {
 }
 
 AravisStereoSource::AravisStereoSource(const AravisSourceConfig& config, StereoCalibration calibration,
-                                       std::chrono::milliseconds log_period)
-    : impl_(std::make_unique<Impl>(config, std::move(calibration), log_period)) {}
+                                       std::chrono::milliseconds log_period, IoFaults* faults)
+    : impl_(std::make_unique<Impl>(config, std::move(calibration), log_period, faults)) {}
 AravisStereoSource::~AravisStereoSource() = default;
 SourceStatus AravisStereoSource::next(StereoFrame& frame) { return impl_->next(frame); }
 const StereoCalibration& AravisStereoSource::calibration() const { return impl_->calibration_; }

@@ -36,9 +36,11 @@ void CanSink::publish_status(const SensorHealth& health, std::int64_t) {
   if (bus_ != nullptr) {
     bus_->poll_errors();
     h.bus_off = bus_->bus_off();
-    // Raised for the period in which the kernel refused frames, like the pipeline's frame_drops.
-    h.can_tx_drops = bus_->stats().dropped != dropped_at_last_status_;
-    dropped_at_last_status_ = bus_->stats().dropped;
+    // Raised for the period in which frames were not sent, like the pipeline's frame_drops: refused by a
+    // full queue (dropped) or by a failed write (interface down: write_errors).
+    const std::uint64_t not_sent = bus_->stats().dropped + bus_->stats().write_errors;
+    h.can_tx_drops = not_sent != not_sent_at_last_status_;
+    not_sent_at_last_status_ = not_sent;
   }
   // Stays raised once the recording failed: the recorder does not resume by itself.
   if (recording_failed_ && recording_failed_()) h.recording_error = true;

@@ -105,7 +105,7 @@ void configure(int fd, const std::string& interface) {
 
 }  // namespace
 
-SocketCanBus::SocketCanBus(const std::string& interface) : interface_(interface) {
+SocketCanBus::SocketCanBus(const std::string& interface, IoFaults* faults) : interface_(interface), faults_(faults) {
   if (interface.empty() || interface.size() >= IFNAMSIZ) {
     throw_for(EINVAL, interface, "interface names are 1 to 15 characters");
   }
@@ -119,7 +119,12 @@ SocketCanBus::SocketCanBus(const std::string& interface) : interface_(interface)
   }
 }
 
-SocketCanBus::SocketCanBus(int fd, std::string name) noexcept : interface_(std::move(name)), fd_(fd) {}
+SocketCanBus::SocketCanBus(int fd, const std::string& interface, IoFaults* faults) noexcept
+    : interface_(interface), fd_(fd), faults_(faults) {}
+
+std::unique_ptr<SocketCanBus> SocketCanBus::adopt(int fd, const std::string& interface, IoFaults* faults) {
+  return std::unique_ptr<SocketCanBus>(new SocketCanBus(fd, interface, faults));
+}
 
 SocketCanBus::~SocketCanBus() { ::close(fd_); }
 
@@ -127,7 +132,15 @@ bool SocketCanBus::send(const CanFrame& frame) noexcept {
   const struct can_frame out = to_kernel_frame(frame);
   ssize_t written;
   do {
-    written = ::write(fd_, &out, sizeof out);
+    const int fault = faults_ != nullptr ? faults_->check(IoPoint::CanWrite) : 0;
+    if (fault > 0) {
+      errno = fault;
+      written = -1;
+    } else if (fault == io_fault::kShort) {
+      written = sizeof out / 2;
+    } else {
+      written = ::write(fd_, &out, sizeof out);
+    }
   } while (written < 0 && errno == EINTR);
   // CAN_RAW writes whole frames or nothing; a short count would be a kernel contract change.
   const SendOutcome outcome = written == static_cast<ssize_t>(sizeof out) ? SendOutcome::Sent

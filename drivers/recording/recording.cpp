@@ -8,6 +8,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <charconv>
 #include <cstdio>
@@ -33,11 +34,21 @@ constexpr const char* kCalibrationFile = "calibration.yaml";
 
 std::string errno_text() { return std::strerror(errno); }
 
-bool write_all(int fd, const void* data, std::size_t size) {
+// `faults` (tests only, IoPoint::RecordWrite): an errno fails the write as the kernel would; kShort
+// writes half of what is asked (at least a byte), as a write interrupted or near a quota may.
+bool write_all(int fd, const void* data, std::size_t size, IoFaults* faults) {
   const auto* bytes = static_cast<const char*>(data);
   std::size_t done = 0;
   while (done < size) {
-    const ssize_t n = ::write(fd, bytes + done, size - done);
+    std::size_t ask = size - done;
+    if (const int fault = faults != nullptr ? faults->check(IoPoint::RecordWrite) : 0) {
+      if (fault > 0) {
+        errno = fault;
+        return false;
+      }
+      if (fault == io_fault::kShort) ask = std::max<std::size_t>(1, ask / 2);
+    }
+    const ssize_t n = ::write(fd, bytes + done, ask);
     if (n < 0 && errno == EINTR) continue;
     if (n < 0) return false;
     if (n == 0) {
@@ -52,13 +63,13 @@ bool write_all(int fd, const void* data, std::size_t size) {
 // Writes `size` bytes to `tmp`, syncs when asked, renames to `path`. On failure removes `tmp`, sets
 // `error` and returns false.
 bool write_file_atomically(const std::string& tmp, const std::string& path, const void* data, std::size_t size,
-                           bool sync, std::string& error) {
+                           bool sync, std::string& error, IoFaults* faults) {
   const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
   if (fd < 0) {
     error = "cannot create " + tmp + ": " + errno_text();
     return false;
   }
-  bool ok = write_all(fd, data, size) && (!sync || ::fdatasync(fd) == 0);
+  bool ok = write_all(fd, data, size, faults) && (!sync || ::fdatasync(fd) == 0);
   if (!ok) error = "cannot write " + tmp + ": " + errno_text();
   if (::close(fd) != 0 && ok) {
     ok = false;
@@ -175,7 +186,8 @@ RecordingWriter::RecordingWriter(const std::string& dir, const StereoCalibration
 
   const std::string header = std::string(kHeader) + "\n";
   std::string error;
-  if (!write_file_atomically(frames_path_ + ".tmp", frames_path_, header.data(), header.size(), true, error)) {
+  if (!write_file_atomically(frames_path_ + ".tmp", frames_path_, header.data(), header.size(), true, error,
+                             options_.faults)) {
     throw InputError(frames_path_, "file", error);
   }
   csv_fd_ = ::open(frames_path_.c_str(), O_WRONLY | O_APPEND | O_CLOEXEC);
@@ -227,7 +239,8 @@ bool RecordingWriter::write_image(const cv::Mat& image, const char* side, std::u
   }
   image_path(tmp_path_, dir_, side, seq, true);
   image_path(final_path, dir_, side, seq, false);
-  return write_file_atomically(tmp_path_, final_path, encoded_.data(), encoded_.size(), options_.sync_to_disk, error_);
+  return write_file_atomically(tmp_path_, final_path, encoded_.data(), encoded_.size(), options_.sync_to_disk, error_,
+                               options_.faults);
 }
 
 bool RecordingWriter::append_line(const StereoFrame& frame) {
@@ -239,8 +252,8 @@ bool RecordingWriter::append_line(const StereoFrame& frame) {
   line_.push_back(',');
   line_.append(right_path_, dir_.size() + 1);
   line_.push_back('\n');
-  const bool ok =
-      write_all(csv_fd_, line_.data(), line_.size()) && (!options_.sync_to_disk || ::fdatasync(csv_fd_) == 0);
+  const bool ok = write_all(csv_fd_, line_.data(), line_.size(), options_.faults) &&
+                  (!options_.sync_to_disk || ::fdatasync(csv_fd_) == 0);
   if (ok) {
     csv_size_ += line_.size();
     return true;
@@ -275,7 +288,8 @@ bool RecordingWriter::append(const StereoFrame& frame) {
 // ---------------------------------------------------------------------------------------------------
 // ReplaySource
 
-ReplaySource::ReplaySource(const std::string& dir) : dir_(dir), frames_path_(dir + "/" + kFramesFile) {
+ReplaySource::ReplaySource(const std::string& dir, IoFaults* faults)
+    : dir_(dir), frames_path_(dir + "/" + kFramesFile), faults_(faults) {
   std::error_code ec;
   if (!fs::exists(dir_, ec)) throw InputError(dir_, "folder", "does not exist");
   if (!fs::is_directory(dir_, ec)) throw InputError(dir_, "folder", "is not a folder");
@@ -312,6 +326,18 @@ bool ReplaySource::load_image(std::string_view relative, const char* side, cv::M
   // a frames.csv listing some huge file gets an error instead of an allocation of its size.
   const std::uint64_t max_bytes = 16ull * static_cast<std::uint64_t>(calibration_.image_size.area()) + (1u << 20);
   if (!read_file(image_path_, file_bytes_, max_bytes)) return reject("cannot read " + image() + ": " + errno_text());
+  std::size_t decode_bytes = file_bytes_.size();
+  if (const int fault = faults_ != nullptr ? faults_->check(IoPoint::ImageDecode) : 0) {
+    // Tests only: the decoder gets what a damaged file would hand it. An errno: the read failed.
+    if (fault > 0) {
+      errno = fault;
+      return reject("cannot read " + image() + ": " + errno_text());
+    }
+    if (fault == io_fault::kShort) decode_bytes /= 2;  // a file cut off mid-way
+    if (fault == io_fault::kCorrupt) {                 // bit rot over the signature and the header chunk
+      for (std::size_t i = 0; i < std::min<std::size_t>(decode_bytes, 32); ++i) file_bytes_[i] ^= 0x5A;
+    }
+  }
   // Recordings hold PNG only. Anything else is refused before OpenCV sees it: imdecode would hand it to
   // whichever of its other decoders (JPEG 2000, TIFF, OpenEXR ...) claims it, each a parser of its own
   // that writes to stderr. A header larger than the calibration is refused before decoding too, so a
@@ -323,9 +349,11 @@ bool ReplaySource::load_image(std::string_view relative, const char* side, cv::M
                   " (PNG header) but calibration says " + std::to_string(calibration_.image_size.width) + "x" +
                   std::to_string(calibration_.image_size.height));
   }
+  // cv::imdecode leaves its destination untouched when the bytes do not decode: without this release a
+  // corrupt image would silently come out as the previous pair's.
+  decoded_.release();
   try {
-    cv::imdecode(cv::_InputArray(file_bytes_.data(), static_cast<int>(file_bytes_.size())), cv::IMREAD_UNCHANGED,
-                 &decoded_);
+    cv::imdecode(cv::_InputArray(file_bytes_.data(), static_cast<int>(decode_bytes)), cv::IMREAD_UNCHANGED, &decoded_);
   } catch (const cv::Exception&) {
     decoded_.release();
   }

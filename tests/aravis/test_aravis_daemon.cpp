@@ -12,6 +12,7 @@
 #include <cstdio>
 #include <fstream>
 #include <map>
+#include <regex>
 #include <sstream>
 #include <thread>
 
@@ -39,15 +40,16 @@ SynthConfig scene() {
   return p;
 }
 
-// rutd run in the background, stderr to a file; SIGTERM and reaped on destruction.
+// rutd run in the background, stderr to a file; SIGTERM and reaped on destruction. `program`: rutd, or
+// the test program rutd_faults (tests/fault/) with its fault options in front of `args`.
 class Daemon {
  public:
-  Daemon(const std::string& args, const std::string& log) {
+  Daemon(const std::string& args, const std::string& log, const char* program = RUTD_BINARY) {
     pid_ = fork();
     if (pid_ == 0) {
       // Appended piecewise: GCC 12 warns falsely (-Wrestrict) on "..." + quoted(...) here.
       std::string cmd = "exec '";
-      cmd += RUTD_BINARY;
+      cmd += program;
       cmd += "' ";
       cmd += args;
       cmd += " 2>'";
@@ -240,10 +242,106 @@ TEST_F(AravisDaemon, RunMeasuresTheRutAndRidesThroughALostCamera) {
   EXPECT_LE(flagged_ns - stopped_ns, 200'000'000);
   ASSERT_NE(resumed_ns, 0) << "no measurement after the camera came back";
   EXPECT_LE(resumed_ns - restarted_ns, 2'000'000'000);
+  // The flag must go down once pairs flow again: a status stuck at NoCamera would tell the vehicle the
+  // sensor is blind while it measures.
+  ASSERT_NE(cleared_ns, 0) << "NoCamera never cleared after the camera came back";
+  EXPECT_LE(cleared_ns - restarted_ns, 2'500'000'000);
   EXPECT_GT(after, 10);
   EXPECT_NE(text.find("right camera RUTDR01: no frame for"), std::string::npos) << text;
   EXPECT_NE(text.find("right camera RUTDR01: back after"), std::string::npos) << text;
   EXPECT_NE(text.find("skew |right-left| p50"), std::string::npos) << text;
+}
+
+// Faults injected at each camera buffer pop (core/io_faults.hpp, through rutd_faults) for 1.5 s from 4 s
+// after the first pop (measuring by then; the fake cameras start slowly on a loaded machine), longer
+// than it takes to call a camera lost: corrupt buffers (handled as incomplete), short ones (conversion
+// fails) and pops that time out (buffers lost unseen: a stall). Each time the daemon keeps running,
+// NoCamera goes up on CAN, the driver's counters rise, and OK measurements resume with NoCamera down.
+TEST_F(AravisDaemon, CameraBufferFaultsAreFlaggedAndMeasuringResumes) {
+  test::FakeStereoRig rig(scene(), 6);
+  const auto config = write_config(rig);
+  const auto csv = dir_.path() / "m.csv";
+  for (const char* fault : {"corrupt", "short", "timeout"}) {
+    SCOPED_TRACE(fault);
+    std::filesystem::remove(csv);
+    const auto log = dir_.path() / (std::string("rutd-") + fault + ".log");
+    Daemon daemon(std::string("--fault camera-pop:") + fault + ":from=4:until=5.5 run --config " + test::quoted(config),
+                  log.string(), RUTD_FAULTS_BINARY);
+    for (auto t0 = std::chrono::steady_clock::now();
+         count_lines(csv) < 31 && std::chrono::steady_clock::now() - t0 < 60s;)
+      std::this_thread::sleep_for(50ms);
+    ASSERT_GE(count_lines(csv), 31u) << test::read_text(log);
+    std::this_thread::sleep_for(8s);  // the window ends 5.5 s after the first pop
+    // Then up to 30 s for 40 more measurements: reconnecting after a stall storm is slow on a loaded machine.
+    const std::size_t after_window = count_lines(csv);
+    for (auto t0 = std::chrono::steady_clock::now();
+         count_lines(csv) < after_window + 40 && std::chrono::steady_clock::now() - t0 < 30s;)
+      std::this_thread::sleep_for(50ms);
+    ASSERT_TRUE(daemon.running()) << test::read_text(log);
+    const std::int64_t stop_ns = wall_ns();
+    EXPECT_EQ(daemon.stop(), 0) << test::read_text(log);
+    const std::string text = test::read_text(log);
+
+    // Up to the stop: releasing the cameras at exit may raise NoCamera once more, which is right.
+    std::vector<DecodedFrame> frames = decode(dir_.path() / "can.log", dir_.path() / "decoded.csv");
+    while (!frames.empty() && frames.back().t_ns >= stop_ns) frames.pop_back();
+    // NoCamera is up at start until the first pair: the fault's flags are those after the first OK one.
+    std::size_t first_ok = 0;
+    while (first_ok < frames.size() &&
+           !(frames[first_ok].message == "RutMeasurement1" && frames[first_ok].signals.at("RutM1_Status") == 0))
+      ++first_ok;
+    std::size_t first = frames.size(), last = frames.size();
+    for (std::size_t i = first_ok; i < frames.size(); ++i) {
+      if (frames[i].message == "RutSensorStatus" && frames[i].signals.at("NoCamera") != 0) {
+        if (first == frames.size()) first = i;
+        last = i;
+      }
+    }
+    ASSERT_NE(last, frames.size()) << "NoCamera never raised\n" << text;
+    int ok_before = 0, ok_after = 0, status_after = 0;
+    for (std::size_t i = 0; i < frames.size(); ++i) {
+      const bool ok = frames[i].message == "RutMeasurement1" && frames[i].signals.at("RutM1_Status") == 0;
+      ok_before += i < first && ok;
+      ok_after += i > last && ok;
+      status_after += i > last && frames[i].message == "RutSensorStatus";
+    }
+    std::printf("%s: NoCamera on %zu..%zu of %zu frames; OK measurements %d before, %d after\n", fault, first, last,
+                frames.size(), ok_before, ok_after);
+    EXPECT_GT(ok_before, 5) << "nothing measured before the fault";
+    EXPECT_GT(ok_after, 20) << "measuring did not resume\n" << text;
+    EXPECT_GT(status_after, 5) << "NoCamera did not go down";
+
+    const auto injected = [&] {
+      const auto at = text.rfind("injected camera-pop ");
+      return at == std::string::npos ? -1LL : std::stoll(text.substr(at + 20));
+    }();
+    EXPECT_GT(injected, 10) << text;
+    // The driver's last summary line, logged when the source closes.
+    const auto at = text.rfind("cameras: ");
+    ASSERT_NE(at, std::string::npos) << text;
+    const std::string summary = text.substr(at, text.find('\n', at) - at);
+    std::smatch m;
+    ASSERT_TRUE(std::regex_search(summary, m,
+                                  std::regex("(\\d+) incomplete; right .* (\\d+) incomplete; lost left (\\d+) "
+                                             "right (\\d+), back left (\\d+) right (\\d+)")))
+        << summary;
+    const long long incomplete = std::stoll(m[1]) + std::stoll(m[2]), lost = std::stoll(m[3]) + std::stoll(m[4]),
+                    back = std::stoll(m[5]) + std::stoll(m[6]);
+    std::printf("  injected %lld; driver: %lld incomplete, lost %lld, back %lld\n", injected, incomplete, lost, back);
+    if (std::string(fault) == "corrupt") {
+      EXPECT_GE(incomplete, injected) << text;
+      EXPECT_LE(incomplete, injected + 5) << "more incomplete buffers than injected\n" << text;
+    }
+    if (std::string(fault) == "timeout") {
+      EXPECT_GT(lost, 0) << "a camera silent for 1.5 s must be declared lost\n" << text;
+      EXPECT_EQ(back, lost) << text;
+    }
+    if (std::string(fault) == "short") {
+      ASSERT_TRUE(std::regex_search(text, m, std::regex("stopped: .* errors (\\d+)/(\\d+)/(\\d+)"))) << text;
+      EXPECT_GT(std::stoll(m[1]), 10) << "short buffers must fail conversion\n" << text;
+      std::printf("  pipeline source errors %s\n", m[1].str().c_str());
+    }
+  }
 }
 
 }  // namespace

@@ -11,6 +11,8 @@
 #include <fstream>
 #include <string>
 
+#include <memory>
+
 #include <gtest/gtest.h>
 
 #include "can/can_sink.hpp"
@@ -44,7 +46,8 @@ TEST(CanSinkStatus, BusOffAndTransmitDropsReachTheStatusFrame) {
   {
     std::ofstream log_stream(log_path);
     CandumpLogWriter log(log_stream, "fake0");
-    SocketCanBus bus(sv[0], "fake0");  // owns sv[0]
+    const std::unique_ptr<SocketCanBus> owned = SocketCanBus::adopt(sv[0], "fake0");  // owns sv[0]
+    SocketCanBus& bus = *owned;
     CanSink sink(CanIdConfig{}, &bus, &log, &log_stream);
     SensorHealth healthy;
     healthy.last_status = RutStatus::Ok;

@@ -353,6 +353,7 @@ TEST(RealtimePipeline, FramesThatAgeInsideThePipelineAreRefusedBeforePublishing)
   EXPECT_GE(s.stale[idx(Stage::Publish)], 1u);  // at least the first frame: 60 ms in extract
   EXPECT_EQ(s.stale[idx(Stage::Extract)] + s.stale[idx(Stage::Publish)], 5u);
   EXPECT_EQ(accounted(s), 5u);
+  EXPECT_TRUE(sink.saw_stale.load()) << "frames were refused for age but no status said StaleFrames";
 }
 
 TEST(RealtimePipeline, StopUnderLoadReturnsWithinOneSecond) {

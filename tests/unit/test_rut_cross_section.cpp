@@ -156,13 +156,24 @@ TEST(ReduceToCrossSection, PrintsTimePerStrip) {
   const cv::Mat xyz = test::make_strip(RutShape{}, View{}, -320.0, 1.0, 640, 32, 1.0, 3);
   CrossSection c;
   reduce_to_cross_section(xyz, RutConfig{}, c);
+  const CrossSection first = c;
   constexpr int kRuns = 100;
   const auto t0 = std::chrono::steady_clock::now();
   for (int i = 0; i < kRuns; ++i) reduce_to_cross_section(xyz, RutConfig{}, c);
   const auto t1 = std::chrono::steady_clock::now();
   std::printf("reduce_to_cross_section, 640 x 32 points: %.1f us per strip\n",
               std::chrono::duration<double, std::micro>(t1 - t0).count() / kRuns);
-  EXPECT_EQ(c.z_mm.size(), 640u);
+  // The timed calls reused `c`: they must give the first call's section, bin for bin.
+  ASSERT_EQ(c.z_mm.size(), 640u);
+  EXPECT_EQ(c.count, first.count);
+  EXPECT_EQ(c.x0_mm, first.x0_mm);
+  int differing = 0, valid = 0;
+  for (std::size_t i = 0; i < c.z_mm.size(); ++i) {
+    valid += !std::isnan(first.z_mm[i]);
+    differing += !(c.z_mm[i] == first.z_mm[i] || (std::isnan(c.z_mm[i]) && std::isnan(first.z_mm[i])));
+  }
+  EXPECT_EQ(differing, 0);
+  EXPECT_GT(valid, 320) << "a dense strip fills most bins";
 }
 
 }  // namespace

@@ -3,9 +3,12 @@
 // and stores its exit status in `exit_code`. Callbacks throw InputError for bad input at start-up.
 #include <CLI/CLI.hpp>
 
+#include "daemon/run_injection.hpp"
+
 namespace rutd {
 
-void add_run_command(CLI::App& app, int& exit_code);        // measure live, publish CAN frames
+// measure live, publish CAN frames; `injection`: tests only (daemon/run_injection.hpp)
+void add_run_command(CLI::App& app, int& exit_code, RunInjection injection = {});
 void add_synth_command(CLI::App& app, int& exit_code);      // render a synthetic recording with truth
 void add_replay_command(CLI::App& app, int& exit_code);     // measure a recording
 void add_calibrate_command(CLI::App& app, int& exit_code);  // chessboard pairs to a calibration file

@@ -26,6 +26,7 @@
 #include "camera/camera_error.hpp"
 #include "camera/stereo_pairing.hpp"
 #include "core/frame_source.hpp"
+#include "core/io_faults.hpp"
 #include "core/stereo_calibration.hpp"
 
 namespace rutd {
@@ -53,8 +54,12 @@ class AravisStereoSource final : public FrameSource {
   // is not an error: the source starts without it (warning logged), next() reports Error and the
   // connector keeps looking for it. Throws std::invalid_argument ("field: why") for an unusable
   // configuration. The pairing and fault counters are logged every log_period (0: only at destruction).
+  // faults: tests only (core/io_faults.hpp), IoPoint::CameraPop at each buffer taken from a stream: a
+  // timeout (the buffer is lost unseen), a corrupt buffer (handled as incomplete) or a short one (fails
+  // conversion). Not owned.
   AravisStereoSource(const AravisSourceConfig& config, StereoCalibration calibration,
-                     std::chrono::milliseconds log_period = std::chrono::milliseconds(10000));
+                     std::chrono::milliseconds log_period = std::chrono::milliseconds(10000),
+                     IoFaults* faults = nullptr);
   ~AravisStereoSource() override;
   AravisStereoSource(const AravisStereoSource&) = delete;
   AravisStereoSource& operator=(const AravisStereoSource&) = delete;

@@ -15,8 +15,8 @@ namespace rutd {
 
 // CAN: every measurement and status is encoded once; each frame goes to the bus (when configured) and
 // to the candump log (when configured), so the log is exactly what the bus got. With a bus, frames the
-// kernel refused (full queue) are counted, reported in the status message and not logged. With a
-// recording, every status frame after the recording failed carries RecordingError = 1.
+// kernel refused (full queue, failed write) are counted, reported in the status message (CanTxDrops) and
+// not logged. With a recording, every status frame after the recording failed carries RecordingError = 1.
 class CanSink final : public MeasurementSink {
  public:
   // bus and log may be null (not configured); neither is owned, both must outlive the sink. log_stream
@@ -37,7 +37,7 @@ class CanSink final : public MeasurementSink {
   std::ostream* log_stream_;
   std::function<bool()> recording_failed_;
   std::array<CanFrame, 2> frames_{};
-  std::uint64_t dropped_at_last_status_ = 0;
+  std::uint64_t not_sent_at_last_status_ = 0;
 };
 
 }  // namespace rutd

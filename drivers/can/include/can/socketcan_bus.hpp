@@ -7,10 +7,12 @@
 #include <linux/can.h>
 
 #include <cstdint>
+#include <memory>
 #include <optional>
 #include <string>
 
 #include "can/can_frame.hpp"
+#include "core/io_faults.hpp"
 
 namespace rutd {
 
@@ -73,17 +75,20 @@ class SocketCanBus {  // not thread-safe: owned by the publisher thread
   // see what it sends (CAN_RAW_LOOPBACK stays on, so candump on the same machine works). Throws
   // std::system_error whose what() names the interface if the socket cannot be opened or bound
   // (kernel without CAN support, no such interface, name too long).
-  explicit SocketCanBus(const std::string& interface);
-  // Takes ownership of `fd`, an open, non-blocking datagram socket whose datagrams are struct can_frame
-  // (a socketpair standing in for the bus: the sink's frames and the error frames then pass through
-  // the same write and recv calls as on a CAN_RAW socket). For tests without kernel CAN support.
-  SocketCanBus(int fd, std::string name) noexcept;
+  // faults: tests only (core/io_faults.hpp), IoPoint::CanWrite; not owned, must outlive the bus.
+  explicit SocketCanBus(const std::string& interface, IoFaults* faults = nullptr);
+  // Tests only: takes ownership of an open, connected, non-blocking datagram socket that stands in for
+  // the CAN socket (a socketpair(AF_UNIX, SOCK_SEQPACKET) end: each write is one struct can_frame, which
+  // the other end reads), named `interface` in messages. Machines without CAN kernel support can then
+  // run the daemon's CAN path.
+  static std::unique_ptr<SocketCanBus> adopt(int fd, const std::string& interface, IoFaults* faults = nullptr);
   ~SocketCanBus();
   SocketCanBus(const SocketCanBus&) = delete;
   SocketCanBus& operator=(const SocketCanBus&) = delete;
 
   // Writes one frame. Never blocks: a full transmit queue (ENOBUFS/EAGAIN) drops the frame and counts
-  // it; any other failure counts as a write error. Returns true only if the frame was queued.
+  // it; any other failure (ENETDOWN: interface down ...) counts as a write error. Returns true only if
+  // the frame was queued.
   bool send(const CanFrame& frame) noexcept;
 
   // Reads the pending error frames without blocking (at most kMaxErrorFramesPerPoll a call, so a
@@ -96,8 +101,10 @@ class SocketCanBus {  // not thread-safe: owned by the publisher thread
   const std::string& interface() const noexcept { return interface_; }
 
  private:
+  SocketCanBus(int fd, const std::string& interface, IoFaults* faults) noexcept;
   std::string interface_;
   int fd_ = -1;
+  IoFaults* faults_ = nullptr;
   CanBusState state_;
 };
 

@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "core/frame_source.hpp"
+#include "core/io_faults.hpp"
 #include "core/stereo_calibration.hpp"
 #include "core/stereo_frame.hpp"
 
@@ -26,6 +27,9 @@ struct RecordingWriterConfig {
   bool sync_to_disk = true;
   // PNG zlib level 0..9. Low levels keep encoding within a frame period; PNG stays lossless at any level.
   int png_compression = 1;
+  // Tests only (core/io_faults.hpp): faults at every write() of the recording, IoPoint::RecordWrite.
+  // Not owned; must outlive the writer.
+  IoFaults* faults = nullptr;
 };
 
 // Writes a new recording. Not thread-safe: one writer thread. Allocation happens on the first pairs
@@ -77,12 +81,15 @@ class RecordingWriter {
 };
 
 // Replays a recording as fast as it can read. Not thread-safe: one thread owns it. The frame's image
-// buffers are reused when size and type fit; the reader's own decode buffers are reused across pairs.
+// buffers are reused when size and type fit; the reader's file buffer is reused across pairs (the decoded
+// image is not: OpenCV's decoder allocates it).
 class ReplaySource : public FrameSource {
  public:
   // Opens dir: reads and checks calibration.yaml (load_calibration) and the frames.csv header. Throws
   // InputError naming the file and field/line for a missing folder or file or a bad header.
-  explicit ReplaySource(const std::string& dir);
+  // faults: tests only (core/io_faults.hpp), IoPoint::ImageDecode: an image read that fails, or bytes
+  // cut short or corrupted before the decoder sees them. Not owned.
+  explicit ReplaySource(const std::string& dir, IoFaults* faults = nullptr);
 
   // Streams frames.csv line by line. Error (error_message() = "FILE: line N: message") for a malformed
   // line, a missing or unreadable image, left/right size or type mismatch, a size that differs from the
@@ -125,6 +132,7 @@ class ReplaySource : public FrameSource {
   std::string line_, image_path_;
   std::vector<char> file_bytes_;
   cv::Mat decoded_;
+  IoFaults* faults_;
 };
 
 }  // namespace rutd

@@ -9,14 +9,17 @@
 #include <vector>
 
 #include "core/frame_source.hpp"
+#include "core/io_faults.hpp"
 
 namespace rutd {
 
 class CyclingSource final : public FrameSource {
  public:
   // frames: at least one pair. period: the pacing of next() (a camera's frame period); zero: as fast as
-  // it is called.
-  CyclingSource(StereoCalibration calibration, std::vector<StereoFrame> frames, std::chrono::nanoseconds period);
+  // it is called. faults: tests only (core/io_faults.hpp), IoPoint::CameraPop: a paced wait that ends in
+  // a timeout, or a buffer refused as corrupt or short, as a camera driver reports them; not owned.
+  CyclingSource(StereoCalibration calibration, std::vector<StereoFrame> frames, std::chrono::nanoseconds period,
+                IoFaults* faults = nullptr);
 
   SourceStatus next(StereoFrame& frame) override;
   const StereoCalibration& calibration() const override { return calibration_; }
@@ -29,6 +32,7 @@ class CyclingSource final : public FrameSource {
   std::chrono::steady_clock::time_point due_{};
   std::string error_;
   std::uint64_t seq_ = 0;
+  IoFaults* faults_;
 };
 
 }  // namespace rutd
