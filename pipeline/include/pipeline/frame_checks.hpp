@@ -47,7 +47,7 @@ struct ConditionConfig {
   // both cameras see less than flat_ratio of the texture of the ground outside the rut, at least
   // flat_min_width_mm wide on the ground. Still water reflects a smooth sky and has no texture of its
   // own; soil, snow and mud all do at the scale of a block.
-  double flat_ratio = 0.25;  // 0.35 took a rut wall in shadow (sand, 60 mm, 80 mm baseline) for water
+  double flat_ratio = 0.35;
   double flat_min_width_mm = 8.0;
   // Calibration: the vertical offset of the right strip's features against the left's, measured by
   // normalised cross-correlation of vertical_blocks blocks spread over the middle 60 % of the strip,

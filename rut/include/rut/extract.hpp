@@ -45,10 +45,9 @@ struct RutConfig {
   // (0.25 = interquartile mean: robust to stereo outliers, ~85 % of the mean's efficiency).
   double trim_fraction = 0.25;
   // A depth whose estimated standard uncertainty (RutMeasurement::depth_uncertainty_mm, see
-  // extract_rut) exceeds this is not Ok but Uncertain. 0.6 mm: clean rendered ruts in snow reached an
-  // estimate of 0.51 mm while within 0.1 mm of the truth (0.35 refused them); the estimate is the
-  // profile's noise, and it still underestimates noise correlated over many bins.
-  double max_depth_uncertainty_mm = 0.6;
+  // extract_rut) exceeds this is not Ok but Uncertain. 0.35 mm: the end-to-end tolerance of 1 mm is then
+  // about three standard uncertainties.
+  double max_depth_uncertainty_mm = 0.35;
   // Soil seen by stereo and averaged along the strip is smooth at the scale of a bin: its per-bin
   // scatter about the local parabola is the stereo noise, a few tenths of a millimetre. Grass blades
   // standing above the soil put single bins millimetres above or below their neighbours. A scatter
