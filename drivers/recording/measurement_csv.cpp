@@ -15,7 +15,7 @@
 namespace rutd {
 namespace {
 
-constexpr int kStatusCount = kRutStatusCount;
+constexpr int kStatusCount = 6;
 constexpr int kColumnCount = 3 + kMeasurementFieldCount;
 
 struct FieldSpec {
