@@ -468,6 +468,15 @@ void RealtimePipeline::Impl::publish_loop(std::stop_token st) {
     if (slot == nullptr && done[idx(Stage::Extract)].load(std::memory_order_acquire)) {
       slot = take(Stage::Publish);
       if (slot == nullptr) {
+        // The stream ended (a finite source): one last status, so that what happened since the last one
+        // (frames refused as stale at the very end, say) still reaches the sink.
+        update_health(monotonic_now_ns(), window);
+        try {
+          sink.publish_status(health(), monotonic_now_ns());
+        } catch (...) {
+          add(sink_errors);
+        }
+        add(status_sent);
         done[idx(Stage::Publish)].store(true, std::memory_order_release);
         return;
       }
