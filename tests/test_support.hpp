@@ -60,6 +60,14 @@ inline std::string read_text(const std::filesystem::path& p) {
   return ss.str();
 }
 
+// Lines of the file at `path` that contain `needle`; 0 if it cannot be read.
+inline int count_lines(const std::filesystem::path& path, const std::string& needle) {
+  std::ifstream in(path);
+  int n = 0;
+  for (std::string line; std::getline(in, line);) n += line.find(needle) != std::string::npos;
+  return n;
+}
+
 // Runs `rutd ARGS` through the shell (ARGS must be shell-safe) and returns its exit status, or -1 if it
 // did not exit normally. stderr_file, when given, receives the program's standard error.
 inline int run_rutd(const std::string& args, const std::string& stderr_file = {}) {

@@ -23,13 +23,6 @@ namespace {
 
 using namespace std::chrono_literals;
 
-int count_lines(const std::string& path, const std::string& needle) {
-  std::ifstream in(path);
-  int n = 0;
-  for (std::string line; std::getline(in, line);) n += line.find(needle) != std::string::npos;
-  return n;
-}
-
 TEST(DaemonStop, SigtermDrainsAndExitsZeroWithinOneSecond) {
   const test::TempDir tmp;
   const std::string log = (tmp.path() / "can.log").string(), csv = (tmp.path() / "m.csv").string();
@@ -50,9 +43,9 @@ TEST(DaemonStop, SigtermDrainsAndExitsZeroWithinOneSecond) {
 
   // Wait for measurements to flow (the first frames render and prime the pipeline).
   const auto deadline = std::chrono::steady_clock::now() + 60s;
-  while (count_lines(log, "18FF50A0#") < 5 && std::chrono::steady_clock::now() < deadline)
+  while (test::count_lines(log, "18FF50A0#") < 5 && std::chrono::steady_clock::now() < deadline)
     std::this_thread::sleep_for(50ms);
-  ASSERT_GE(count_lines(log, "18FF50A0#"), 5) << "no measurements within 60 s";
+  ASSERT_GE(test::count_lines(log, "18FF50A0#"), 5) << "no measurements within 60 s";
 
   const auto t0 = std::chrono::steady_clock::now();
   ASSERT_EQ(kill(pid, SIGTERM), 0);

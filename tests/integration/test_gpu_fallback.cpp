@@ -11,13 +11,6 @@
 namespace rutd {
 namespace {
 
-int count_lines(const std::string& path, const std::string& needle) {
-  std::ifstream in(path);
-  int n = 0;
-  for (std::string line; std::getline(in, line);) n += line.find(needle) != std::string::npos;
-  return n;
-}
-
 TEST(GpuFallback, NoMatchingDeviceIsLoggedOnceAndTheDaemonMeasures) {
   const test::TempDir tmp;
   const std::string config = (tmp.path() / "gpu.yaml").string(), err = (tmp.path() / "err.txt").string();
@@ -25,7 +18,7 @@ TEST(GpuFallback, NoMatchingDeviceIsLoggedOnceAndTheDaemonMeasures) {
   std::ofstream(config) << "measurement:\n  engine: gpu\n  gpu_device: no-such-device-name\n";
   ASSERT_EQ(test::run_rutd("run --config " + config + " --frames 3 --size 320x240 --candump '' --csv " + csv, err), 0)
       << test::read_text(err);
-  EXPECT_EQ(count_lines(err, "GPU engine unavailable"), 1) << test::read_text(err);
+  EXPECT_EQ(test::count_lines(err, "GPU engine unavailable"), 1) << test::read_text(err);
   // The published measurements reached the CSV: a header and a line each.
   std::ifstream in(csv);
   int lines = 0;
