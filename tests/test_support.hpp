@@ -3,15 +3,18 @@
 // program as a user would.
 #include <sys/wait.h>
 
+#include <cstdint>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <limits>
+#include <map>
 #include <regex>
 #include <sstream>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 #include <opencv2/core.hpp>
 
@@ -66,6 +69,41 @@ inline int count_lines(const std::filesystem::path& path, const std::string& nee
   int n = 0;
   for (std::string line; std::getline(in, line);) n += line.find(needle) != std::string::npos;
   return n;
+}
+
+// One CAN frame as tests/can/decode_candump.py writes it (decoded by canmatrix with the DBC): its log time,
+// message name, and each signal's raw and physical value.
+struct DecodedFrame {
+  std::int64_t t_ns = 0;
+  std::string message;
+  std::map<std::string, double> raw, phys;
+};
+
+// The frames of decode_candump.py's CSV (header index,t_ns,message,signal,raw,phys,...; one line per
+// signal, a frame's lines sharing its index), in log order.
+inline std::vector<DecodedFrame> read_decoded_csv(const std::filesystem::path& csv) {
+  std::vector<DecodedFrame> frames;
+  std::ifstream in(csv);
+  std::string line;
+  std::getline(in, line);  // header
+  long last_index = -1;
+  while (std::getline(in, line)) {
+    std::stringstream ss(line);
+    std::string index, t, message, signal, raw, phys;
+    std::getline(ss, index, ',');
+    std::getline(ss, t, ',');
+    std::getline(ss, message, ',');
+    std::getline(ss, signal, ',');
+    std::getline(ss, raw, ',');
+    std::getline(ss, phys, ',');
+    if (std::stol(index) != last_index) {
+      frames.push_back({std::stoll(t), message, {}, {}});
+      last_index = std::stol(index);
+    }
+    frames.back().raw[signal] = std::stod(raw);
+    frames.back().phys[signal] = std::stod(phys);
+  }
+  return frames;
 }
 
 // Runs `rutd ARGS` through the shell (ARGS must be shell-safe) and returns its exit status, or -1 if it

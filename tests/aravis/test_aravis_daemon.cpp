@@ -95,39 +95,13 @@ std::size_t count_lines(const std::filesystem::path& p) {
   return n;
 }
 
-// Decoded signals of one CAN log: (frame index, wall time ns, message) -> signal -> physical value.
-struct DecodedFrame {
-  std::int64_t t_ns = 0;
-  std::string message;
-  std::map<std::string, double> signals;
-};
-
-std::vector<DecodedFrame> decode(const std::filesystem::path& log, const std::filesystem::path& out) {
+// Decodes a candump log with canmatrix and the DBC into `out`; one entry per frame, in log order.
+std::vector<test::DecodedFrame> decode(const std::filesystem::path& log, const std::filesystem::path& out) {
   const std::string cmd = std::string("/usr/bin/python3 ") + RUTD_SOURCE_DIR + "/tests/can/decode_candump.py " +
                           RUTD_SOURCE_DIR + "/config/rutd.dbc " + test::quoted(log) + " >" + test::quoted(out) + " 2>" +
                           test::quoted(out.string() + ".err");
   EXPECT_EQ(test::run_shell(cmd), 0) << test::read_text(out.string() + ".err");
-  std::vector<DecodedFrame> frames;
-  std::ifstream in(out);
-  std::string line;
-  std::getline(in, line);  // header
-  long last_index = -1;
-  while (std::getline(in, line)) {
-    std::stringstream ss(line);
-    std::string index, t, message, signal, raw, phys;
-    std::getline(ss, index, ',');
-    std::getline(ss, t, ',');
-    std::getline(ss, message, ',');
-    std::getline(ss, signal, ',');
-    std::getline(ss, raw, ',');
-    std::getline(ss, phys, ',');
-    if (std::stol(index) != last_index) {
-      frames.push_back({std::stoll(t), message, {}});
-      last_index = std::stol(index);
-    }
-    frames.back().signals[signal] = std::stod(phys);
-  }
-  return frames;
+  return test::read_decoded_csv(out);
 }
 
 class AravisDaemon : public ::testing::Test {
@@ -204,21 +178,21 @@ TEST_F(AravisDaemon, RunMeasuresTheRutAndRidesThroughALostCamera) {
     for (std::string line; std::getline(lines, line);)
       if (line.find("camera") != std::string::npos) std::printf("rutd: %s\n", line.c_str());
   }
-  const std::vector<DecodedFrame> frames = decode(dir_.path() / "can.log", dir_.path() / "decoded.csv");
+  const std::vector<test::DecodedFrame> frames = decode(dir_.path() / "can.log", dir_.path() / "decoded.csv");
   std::int64_t flagged_ns = 0, resumed_ns = 0, cleared_ns = 0;
   int before = 0, before_ok = 0, after = 0;
   double worst = 0;
-  for (const DecodedFrame& f : frames) {
+  for (const test::DecodedFrame& f : frames) {
     if (f.message == "RutSensorStatus") {
-      const bool no_camera = f.signals.at("NoCamera") != 0;
+      const bool no_camera = f.phys.at("NoCamera") != 0;
       if (f.t_ns > stopped_ns && f.t_ns < restarted_ns && no_camera && flagged_ns == 0) flagged_ns = f.t_ns;
       if (f.t_ns > restarted_ns && resumed_ns != 0 && !no_camera && cleared_ns == 0) cleared_ns = f.t_ns;
     } else if (f.message == "RutMeasurement1") {
       if (f.t_ns < stopped_ns) {
         ++before;
-        if (f.signals.at("RutM1_Status") == 0) {
+        if (f.phys.at("RutM1_Status") == 0) {
           ++before_ok;
-          worst = std::max(worst, std::abs(f.signals.at("RutDepth") - truth));
+          worst = std::max(worst, std::abs(f.phys.at("RutDepth") - truth));
         }
       } else if (f.t_ns > restarted_ns) {
         ++after;
@@ -286,16 +260,16 @@ TEST_F(AravisDaemon, DISABLED_CameraBufferFaultsAreFlaggedAndMeasuringResumes) {
     const std::string text = test::read_text(log);
 
     // Up to the stop: releasing the cameras at exit may raise NoCamera once more, which is right.
-    std::vector<DecodedFrame> frames = decode(dir_.path() / "can.log", dir_.path() / "decoded.csv");
+    std::vector<test::DecodedFrame> frames = decode(dir_.path() / "can.log", dir_.path() / "decoded.csv");
     while (!frames.empty() && frames.back().t_ns >= stop_ns) frames.pop_back();
     // NoCamera is up at start until the first pair: the fault's flags are those after the first OK one.
     std::size_t first_ok = 0;
     while (first_ok < frames.size() &&
-           !(frames[first_ok].message == "RutMeasurement1" && frames[first_ok].signals.at("RutM1_Status") == 0))
+           !(frames[first_ok].message == "RutMeasurement1" && frames[first_ok].phys.at("RutM1_Status") == 0))
       ++first_ok;
     std::size_t first = frames.size(), last = frames.size();
     for (std::size_t i = first_ok; i < frames.size(); ++i) {
-      if (frames[i].message == "RutSensorStatus" && frames[i].signals.at("NoCamera") != 0) {
+      if (frames[i].message == "RutSensorStatus" && frames[i].phys.at("NoCamera") != 0) {
         if (first == frames.size()) first = i;
         last = i;
       }
@@ -303,7 +277,7 @@ TEST_F(AravisDaemon, DISABLED_CameraBufferFaultsAreFlaggedAndMeasuringResumes) {
     ASSERT_NE(last, frames.size()) << "NoCamera never raised\n" << text;
     int ok_before = 0, ok_after = 0, status_after = 0;
     for (std::size_t i = 0; i < frames.size(); ++i) {
-      const bool ok = frames[i].message == "RutMeasurement1" && frames[i].signals.at("RutM1_Status") == 0;
+      const bool ok = frames[i].message == "RutMeasurement1" && frames[i].phys.at("RutM1_Status") == 0;
       ok_before += i < first && ok;
       ok_after += i > last && ok;
       status_after += i > last && frames[i].message == "RutSensorStatus";

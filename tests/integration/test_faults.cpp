@@ -44,17 +44,12 @@ using namespace std::chrono_literals;
 constexpr double kFrom = 1.5, kUntil = 3.5;
 constexpr auto kRunAfterReady = std::chrono::seconds(7);
 
-struct Decoded {
-  std::string message;
-  std::map<std::string, double> signals;
-};
-
 struct DecodeSummary {
   int frames = -1, crc_errors = -1, counter_errors = -1, unknown_frames = -1, bad_lines = -1;
 };
 
 // Decodes a candump log with canmatrix and the DBC; one entry per frame, in log order.
-std::vector<Decoded> decode(const fs::path& log, DecodeSummary& summary) {
+std::vector<test::DecodedFrame> decode(const fs::path& log, DecodeSummary& summary) {
   const fs::path out = log.string() + ".csv", err = log.string() + ".err";
   test::run_shell(std::string("/usr/bin/python3 ") + RUTD_SOURCE_DIR + "/tests/can/decode_candump.py " +
                   RUTD_SOURCE_DIR + "/config/rutd.dbc " + test::quoted(log) + " >" + test::quoted(out) + " 2>" +
@@ -66,27 +61,7 @@ std::vector<Decoded> decode(const fs::path& log, DecodeSummary& summary) {
                                    "bad_lines=(\\d+)"))) {
     summary = {std::stoi(m[1]), std::stoi(m[2]), std::stoi(m[3]), std::stoi(m[4]), std::stoi(m[5])};
   }
-  std::vector<Decoded> frames;
-  std::ifstream in(out);
-  std::string line;
-  std::getline(in, line);  // index,t_ns,message,signal,raw,phys,named,na
-  long last_index = -1;
-  while (std::getline(in, line)) {
-    std::stringstream ss(line);
-    std::string index, t, message, signal, raw, phys;
-    std::getline(ss, index, ',');
-    std::getline(ss, t, ',');
-    std::getline(ss, message, ',');
-    std::getline(ss, signal, ',');
-    std::getline(ss, raw, ',');
-    std::getline(ss, phys, ',');
-    if (std::stol(index) != last_index) {
-      frames.push_back({message, {}});
-      last_index = std::stol(index);
-    }
-    frames.back().signals[signal] = std::stod(raw);
-  }
-  return frames;
+  return test::read_decoded_csv(out);
 }
 
 // The integer after `label` in the text (the last occurrence); -1 if absent.
@@ -136,13 +111,13 @@ struct FlagTimeline {
   int cleared_after_last_raised = 0;  // status frames after it, flag down
 };
 
-FlagTimeline timeline(const std::vector<Decoded>& frames, const std::string& flag) {
+FlagTimeline timeline(const std::vector<test::DecodedFrame>& frames, const std::string& flag) {
   FlagTimeline t;
   std::size_t first = frames.size(), last = frames.size();
   for (std::size_t i = 0; i < frames.size(); ++i) {
     if (frames[i].message != "RutSensorStatus") continue;
     ++t.status_frames;
-    if (frames[i].signals.at(flag) != 0) {
+    if (frames[i].raw.at(flag) != 0) {
       ++t.raised;
       if (first == frames.size()) first = i;
       last = i;
@@ -150,7 +125,7 @@ FlagTimeline timeline(const std::vector<Decoded>& frames, const std::string& fla
   }
   if (last == frames.size()) return t;
   for (std::size_t i = 0; i < frames.size(); ++i) {
-    const bool ok = frames[i].message == "RutMeasurement1" && frames[i].signals.at("RutM1_Status") == 0;
+    const bool ok = frames[i].message == "RutMeasurement1" && frames[i].raw.at("RutM1_Status") == 0;
     if (i < first && ok) ++t.ok_before_first_raised;
     if (i > last && ok) ++t.ok_after_last_raised;
     if (i > last && frames[i].message == "RutSensorStatus") ++t.cleared_after_last_raised;
@@ -172,7 +147,7 @@ class Faults : public ::testing::Test {
     const std::string text = test::read_text(err());
     EXPECT_EQ(rc, 0) << "the daemon did not run until SIGTERM and exit cleanly\n" << text;
     DecodeSummary s;
-    const std::vector<Decoded> frames = decode(log(), s);
+    const std::vector<test::DecodedFrame> frames = decode(log(), s);
     EXPECT_GT(s.frames, 0) << test::read_text(log().string() + ".err");
     EXPECT_EQ(s.crc_errors, 0);
     EXPECT_EQ(s.unknown_frames, 0);
@@ -287,9 +262,9 @@ TEST_F(Faults, RecordingWriteErrorsRaiseRecordingErrorWhileMeasuringGoesOn) {
     EXPECT_GE(t.ok_after_last_raised, 0);
     int ok_after_first = 0;
     bool raised = false;
-    for (const Decoded& f : decode(log(), s)) {
-      if (f.message == "RutSensorStatus" && f.signals.at("RecordingError") != 0) raised = true;
-      if (raised && f.message == "RutMeasurement1" && f.signals.at("RutM1_Status") == 0) ++ok_after_first;
+    for (const test::DecodedFrame& f : decode(log(), s)) {
+      if (f.message == "RutSensorStatus" && f.raw.at("RecordingError") != 0) raised = true;
+      if (raised && f.message == "RutMeasurement1" && f.raw.at("RutM1_Status") == 0) ++ok_after_first;
     }
     EXPECT_GE(ok_after_first, 30) << "measuring did not go on after the recording failed";
     std::printf("  OK measurements after RecordingError was raised: %d\n", ok_after_first);
