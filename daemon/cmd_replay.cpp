@@ -112,7 +112,13 @@ int run_replay(const ReplayOptions& o) {
     const RutMeasurement& m = work.measurement;
     summary.add(m, work.diag);
     if (plots) plots->publish(work, SensorHealth{});
-    csv.write(frame.seq, frame.t_ns, m);
+    if (!csv.write(frame.seq, frame.t_ns, m)) {
+      // Measuring on with nowhere to put the result is pointless: stop, keeping the rows written so far.
+      progress.clear();
+      spdlog::error("{}: cannot write the measurement of seq {} (disk full or output closed); {} rows written",
+                    o.out.empty() ? std::string("standard output") : o.out, frame.seq, csv.rows_written());
+      return 1;
+    }
     if (candump) {
       const int n = encoder.encode_measurement(m, frames);
       for (int i = 0; i < n; ++i) candump->write(frames[static_cast<std::size_t>(i)], frame.t_ns);

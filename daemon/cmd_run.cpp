@@ -5,7 +5,8 @@
 // format), logs on stderr. SIGINT/SIGTERM: stop, drain, exit 0 within a second. With sinks.record (or
 // --record DIR) the raw pairs are also recorded (recording/frame_recorder.hpp); a recording that fails
 // (disk full, file too large) stops with one error and raises RecordingError in the status frames
-// while measuring goes on.
+// while measuring goes on; so does a measurement CSV row that cannot be written (sinks.csv, which
+// resumes by itself when the disk has room again).
 #include <atomic>
 #include <csignal>
 #include <filesystem>
@@ -98,9 +99,10 @@ int run_daemon(const RunOptions& o, const RunInjection& injection) {
   if (o.test_stall_match_after) stalling.emplace(measurer_stages, *o.test_stall_match_after);
   PipelineStages& stages = stalling ? static_cast<PipelineStages&>(*stalling) : measurer_stages;
 
-  std::ofstream candump_file, csv_file;
+  std::ofstream candump_file;
   std::ostream* candump_stream = open_stream(c.sinks.candump, candump_file, "sinks.candump");
-  std::ostream* csv_stream = open_stream(c.sinks.csv, csv_file, "sinks.csv");
+  std::unique_ptr<MeasurementCsvSink> csv;
+  if (!c.sinks.csv.empty()) csv = std::make_unique<MeasurementCsvSink>(c.sinks.csv, "sinks.csv", injection.faults);
   std::unique_ptr<SocketCanBus> bus;
   if (!c.sinks.socketcan.empty()) {
     bus = injection.open_bus
@@ -118,11 +120,15 @@ int run_daemon(const RunOptions& o, const RunInjection& injection) {
   }
   std::unique_ptr<CandumpLogWriter> log;
   if (candump_stream != nullptr) log = std::make_unique<CandumpLogWriter>(*candump_stream, c.sinks.can_interface_name);
+  // RecordingError: the recording has stopped on an error, or a CSV row was lost since the last status.
   std::function<bool()> recording_failed;
-  if (recorder) recording_failed = [r = recorder.get()] { return r->failed(); };
+  if (recorder || csv) {
+    recording_failed = [r = recorder.get(), m = csv.get()] {
+      const bool csv_failed = m != nullptr && m->failed_since_last_check();
+      return (r != nullptr && r->failed()) || csv_failed;
+    };
+  }
   CanSink can(c.can, bus.get(), log.get(), candump_stream, std::move(recording_failed));
-  std::unique_ptr<MeasurementCsvSink> csv;
-  if (csv_stream != nullptr) csv = std::make_unique<MeasurementCsvSink>(*csv_stream);
   // The CAN status frame says NO_MEASUREMENT once nothing has been published for as long as it takes to
   // call a camera lost.
   NoOutputStatusSink can_status(can, c.pipeline.no_frame_timeout);
@@ -179,6 +185,11 @@ int run_daemon(const RunOptions& o, const RunInjection& injection) {
     // The failure itself was logged once, when it happened.
     spdlog::info("recording {}: {} pairs written, {} dropped (writer behind){}", recorder->directory(), r.written,
                  r.dropped, r.failed ? fmt::format(", stopped by an error, {} pairs not recorded", r.discarded) : "");
+  }
+  if (csv) {
+    const MeasurementCsvStats& m = csv->stats();
+    spdlog::info("measurement CSV {}: {} rows written, {} lost{}", csv->path(), m.rows_written, m.rows_lost,
+                 m.rows_lost > 0 ? " (the last: " + m.last_error + ")" : std::string());
   }
   if (plots) {
     const PlotSinkStats p = plots->finish();

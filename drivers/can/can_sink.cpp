@@ -41,7 +41,8 @@ void CanSink::publish_status(const SensorHealth& health, std::int64_t) {
     h.can_tx_drops = not_sent != not_sent_at_last_status_;
     not_sent_at_last_status_ = not_sent;
   }
-  // Stays raised once the recording failed: the recorder does not resume by itself.
+  // The caller's answer: raised for good once the raw recording failed (the recorder does not resume by
+  // itself), and for each status period in which a measurement CSV row was lost.
   if (recording_failed_ && recording_failed_()) h.recording_error = true;
   emit(encoder_.encode_status(h));
   if (log_stream_ != nullptr) log_stream_->flush();

@@ -22,6 +22,7 @@
 #include <yaml-cpp/yaml.h>
 
 #include "core/input_error.hpp"
+#include "fd_write.hpp"
 
 namespace rutd {
 namespace {
@@ -329,17 +330,6 @@ void check_calibration(const StereoCalibration& c, const std::string& path) {
   check_translation(c.T, path);
 }
 
-bool write_all(int fd, const std::string& text) {
-  std::size_t done = 0;
-  while (done < text.size()) {
-    const ssize_t n = ::write(fd, text.data() + done, text.size() - done);
-    if (n < 0 && errno == EINTR) continue;
-    if (n <= 0) return false;
-    done += static_cast<std::size_t>(n);
-  }
-  return true;
-}
-
 // Makes the rename itself durable (best effort: some file systems refuse fsync on a folder).
 void sync_parent_directory(const std::string& path) {
   const std::size_t slash = path.find_last_of('/');
@@ -356,7 +346,7 @@ void write_atomically(const std::string& path, const std::string& text) {
   const std::string tmp = path + ".tmp";
   const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
   if (fd < 0) throw InputError(path, "file", std::string("cannot write: ") + std::strerror(errno));
-  const bool written = write_all(fd, text) && ::fsync(fd) == 0;
+  const bool written = fd_write_all(fd, text.data(), text.size()) && ::fsync(fd) == 0;
   int err = errno;
   ::close(fd);
   if (written && ::rename(tmp.c_str(), path.c_str()) == 0) {

@@ -130,21 +130,26 @@ MeasurementCsvWriter::MeasurementCsvWriter(std::ostream& out, bool flush_each_li
   if (flush_each_line_) out_.flush();
 }
 
-bool MeasurementCsvWriter::write(std::uint64_t seq, std::int64_t t_ns, const RutMeasurement& measurement) {
-  line_.clear();
-  append_integer(line_, seq);
-  line_.push_back(',');
-  append_integer(line_, t_ns);
-  line_.push_back(',');
-  line_.append(to_string(measurement.status));
+void format_measurement_row(std::string& line, std::uint64_t seq, std::int64_t t_ns,
+                            const RutMeasurement& measurement) {
+  line.clear();
+  append_integer(line, seq);
+  line.push_back(',');
+  append_integer(line, t_ns);
+  line.push_back(',');
+  line.append(to_string(measurement.status));
   for (int i = 0; i < kMeasurementFieldCount; ++i) {
-    line_.push_back(',');
+    line.push_back(',');
     const double value = measurement.*kFields[i].member;
     if (measurement_field_valid(measurement.status, static_cast<MeasurementField>(i)) && std::isfinite(value)) {
-      append_fixed(line_, value, kFields[i].decimals);
+      append_fixed(line, value, kFields[i].decimals);
     }
   }
-  line_.push_back('\n');
+  line.push_back('\n');
+}
+
+bool MeasurementCsvWriter::write(std::uint64_t seq, std::int64_t t_ns, const RutMeasurement& measurement) {
+  format_measurement_row(line_, seq, t_ns, measurement);
   out_.write(line_.data(), static_cast<std::streamsize>(line_.size()));
   if (flush_each_line_) out_.flush();
   if (!out_) return false;

@@ -21,6 +21,7 @@
 
 #include "core/csv_fields.hpp"
 #include "core/input_error.hpp"
+#include "fd_write.hpp"
 #include "recording/calibration_file.hpp"
 
 namespace rutd {
@@ -34,32 +35,6 @@ constexpr const char* kCalibrationFile = "calibration.yaml";
 
 std::string errno_text() { return std::strerror(errno); }
 
-// `faults` (tests only, IoPoint::RecordWrite): an errno fails the write as the kernel would; kShort
-// writes half of what is asked (at least a byte), as a write interrupted or near a quota may.
-bool write_all(int fd, const void* data, std::size_t size, IoFaults* faults) {
-  const auto* bytes = static_cast<const char*>(data);
-  std::size_t done = 0;
-  while (done < size) {
-    std::size_t ask = size - done;
-    if (const int fault = faults != nullptr ? faults->check(IoPoint::RecordWrite) : 0) {
-      if (fault > 0) {
-        errno = fault;
-        return false;
-      }
-      if (fault == io_fault::kShort) ask = std::max<std::size_t>(1, ask / 2);
-    }
-    const ssize_t n = ::write(fd, bytes + done, ask);
-    if (n < 0 && errno == EINTR) continue;
-    if (n < 0) return false;
-    if (n == 0) {
-      errno = ENOSPC;
-      return false;
-    }
-    done += static_cast<std::size_t>(n);
-  }
-  return true;
-}
-
 // Writes `size` bytes to `tmp`, syncs when asked, renames to `path`. On failure removes `tmp`, sets
 // `error` and returns false.
 bool write_file_atomically(const std::string& tmp, const std::string& path, const void* data, std::size_t size,
@@ -69,7 +44,7 @@ bool write_file_atomically(const std::string& tmp, const std::string& path, cons
     error = "cannot create " + tmp + ": " + errno_text();
     return false;
   }
-  bool ok = write_all(fd, data, size, faults) && (!sync || ::fdatasync(fd) == 0);
+  bool ok = fd_write_all(fd, data, size, faults) && (!sync || ::fdatasync(fd) == 0);
   if (!ok) error = "cannot write " + tmp + ": " + errno_text();
   if (::close(fd) != 0 && ok) {
     ok = false;
@@ -252,7 +227,7 @@ bool RecordingWriter::append_line(const StereoFrame& frame) {
   line_.push_back(',');
   line_.append(right_path_, dir_.size() + 1);
   line_.push_back('\n');
-  const bool ok = write_all(csv_fd_, line_.data(), line_.size(), options_.faults) &&
+  const bool ok = fd_write_all(csv_fd_, line_.data(), line_.size(), options_.faults) &&
                   (!options_.sync_to_disk || ::fdatasync(csv_fd_) == 0);
   if (ok) {
     csv_size_ += line_.size();

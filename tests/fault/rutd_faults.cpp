@@ -5,7 +5,7 @@
 //
 // Usage: rutd_faults [--fault SPEC]... [--can-socketpair] run [rutd run options]
 //   SPEC = POINT:FAULT[:every=N][:from=S][:until=S]
-//     POINT  camera-pop | can-write | record-write | image-decode
+//     POINT  camera-pop | can-write | record-write | image-decode | csv-write
 //     FAULT  timeout | corrupt | short | an errno name: EAGAIN ENOBUFS ENETDOWN ENOSPC EIO
 //     every=N  every Nth call in the window fails (default 1); from/until: the window, in seconds since
 //              the first call at that point (default: the whole run).
@@ -40,7 +40,8 @@ namespace {
 const std::map<std::string, rutd::IoPoint> kPoints{{"camera-pop", rutd::IoPoint::CameraPop},
                                                    {"can-write", rutd::IoPoint::CanWrite},
                                                    {"record-write", rutd::IoPoint::RecordWrite},
-                                                   {"image-decode", rutd::IoPoint::ImageDecode}};
+                                                   {"image-decode", rutd::IoPoint::ImageDecode},
+                                                   {"csv-write", rutd::IoPoint::MeasurementWrite}};
 const std::map<std::string, int> kFaults{{"timeout", rutd::io_fault::kTimeout},
                                          {"corrupt", rutd::io_fault::kCorrupt},
                                          {"short", rutd::io_fault::kShort},

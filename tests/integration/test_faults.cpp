@@ -1,8 +1,8 @@
 // Faults injected at the daemon's lowest I/O calls (core/io_faults.hpp), through the test program
 // rutd_faults (tests/fault/rutd_faults.cpp), which runs rutd's own `run` command: camera buffer pops
 // (timeouts, corrupt and short buffers), CAN writes (EAGAIN, ENOBUFS, ENETDOWN), recording writes
-// (ENOSPC, EIO, short writes) and image decoding when replaying. Each fault is on for a window in the
-// middle of the run. For each, the test checks against sources rutd does not control:
+// (ENOSPC, EIO, short writes), measurement CSV writes and image decoding when replaying. Each fault is on for a window
+// in the middle of the run. For each, the test checks against sources rutd does not control:
 //   - the daemon keeps running: it is alive until SIGTERM and then exits 0;
 //   - the status frame carries the fault: the candump log decoded by canmatrix with config/rutd.dbc
 //     (tests/can/decode_candump.py) has RutSensorStatus frames with the fault's flag raised;
@@ -30,6 +30,7 @@
 
 #include <gtest/gtest.h>
 
+#include "recording/measurement_csv.hpp"
 #include "recording/recording.hpp"
 #include "test_support.hpp"
 
@@ -285,6 +286,67 @@ TEST_F(Faults, ShortRecordingWritesLoseNothing) {
   EXPECT_EQ(replayable_pairs(rec), std::stoull(m[1]));
   std::printf("short writes: injected %lld, %s pairs written, every one replays\n",
               number_after(text, "injected record-write "), m[1].str().c_str());
+  DecodeSummary s;
+  EXPECT_EQ(timeline(decode(log(), s), "RecordingError").raised, 0);
+}
+
+// The measurement CSV under failed writes: RecordingError in the status frames while rows are lost, the
+// file stays a valid CSV (read back by read_measurement_csv), every published measurement is either a
+// row or counted lost (the candump log has one RutMeasurement1 frame per measurement), and rows are
+// written again after the fault.
+TEST_F(Faults, MeasurementCsvWriteErrorsRaiseRecordingErrorAndTheCsvResumes) {
+  for (const char* fault : {"ENOSPC", "EIO"}) {
+    SCOPED_TRACE(fault);
+    const fs::path csv = tmp_.path() / (std::string("m-") + fault + ".csv");
+    const std::string text =
+        run_and_check_flag(window("csv-write", fault, 2), "--csv " + test::quoted(csv), "RecordingError");
+    const long long injected = number_after(text, "injected csv-write ");
+    EXPECT_GT(injected, 5);
+    // "measurement CSV PATH: W rows written, L lost (the last: PATH: cannot write the row of seq N: REASON)"
+    std::smatch m;
+    ASSERT_TRUE(std::regex_search(text, m,
+                                  std::regex("measurement CSV .*: (\\d+) rows written, (\\d+) lost \\(the last: .*"
+                                             "cannot write the row of seq (\\d+): ([^)]*)\\)")))
+        << text;
+    const std::uint64_t written = std::stoull(m[1]), lost = std::stoull(m[2]), last_lost_seq = std::stoull(m[3]);
+    EXPECT_EQ(lost, static_cast<std::uint64_t>(injected));
+    EXPECT_EQ(m[4].str(), std::strerror(fault == std::string("EIO") ? EIO : ENOSPC));
+    const MeasurementCsv rows = read_measurement_csv(csv.string());
+    EXPECT_FALSE(rows.truncated_tail);
+    EXPECT_EQ(rows.rows.size(), written);
+    std::uint64_t after_fault = 0;
+    for (std::size_t i = 0; i < rows.rows.size(); ++i) {
+      if (i > 0) {
+        EXPECT_GT(rows.rows[i].seq, rows.rows[i - 1].seq);
+      }
+      EXPECT_NE(rows.rows[i].seq, last_lost_seq);
+      if (rows.rows[i].seq > last_lost_seq) ++after_fault;
+    }
+    EXPECT_GE(after_fault, 20u) << "the CSV did not resume after the fault";
+    DecodeSummary s;
+    std::uint64_t measurements = 0;
+    for (const test::DecodedFrame& f : decode(log(), s)) measurements += f.message == "RutMeasurement1";
+    EXPECT_EQ(written + lost, measurements);
+    std::printf(
+        "  injected %lld; CSV: %llu rows written (valid, %llu after the last lost row), %llu lost; %llu "
+        "measurements on CAN\n",
+        injected, static_cast<unsigned long long>(written), static_cast<unsigned long long>(after_fault),
+        static_cast<unsigned long long>(lost), static_cast<unsigned long long>(measurements));
+  }
+}
+
+TEST_F(Faults, ShortMeasurementCsvWritesLoseNothing) {
+  const fs::path csv = tmp_.path() / "m.csv";
+  const int rc = run_for("--fault csv-write:short", base_args() + " --csv " + test::quoted(csv), err());
+  const std::string text = test::read_text(err());
+  ASSERT_EQ(rc, 0) << text;
+  EXPECT_GT(number_after(text, "injected csv-write "), 100);
+  std::smatch m;
+  ASSERT_TRUE(std::regex_search(text, m, std::regex("measurement CSV .*: (\\d+) rows written, 0 lost\n"))) << text;
+  const MeasurementCsv rows = read_measurement_csv(csv.string());
+  EXPECT_FALSE(rows.truncated_tail);
+  EXPECT_EQ(rows.rows.size(), std::stoull(m[1]));
+  EXPECT_GT(rows.rows.size(), 30u);
   DecodeSummary s;
   EXPECT_EQ(timeline(decode(log(), s), "RecordingError").raised, 0);
 }

@@ -17,12 +17,13 @@ namespace rutd {
 
 // Where a fault is injected.
 enum class IoPoint {
-  CameraPop,    // taking the next buffer/pair from a camera or a synthetic/replay source
-  CanWrite,     // write() of a frame on the CAN socket
-  RecordWrite,  // write() of an image or a frames.csv line of a recording
-  ImageDecode,  // decoding a recorded image (PNG) when replaying
+  CameraPop,         // taking the next buffer/pair from a camera or a synthetic/replay source
+  CanWrite,          // write() of a frame on the CAN socket
+  RecordWrite,       // write() of an image or a frames.csv line of a recording
+  ImageDecode,       // decoding a recorded image (PNG) when replaying
+  MeasurementWrite,  // write() of a row of the measurement CSV (sinks.csv)
 };
-inline constexpr std::size_t kIoPointCount = 4;
+inline constexpr std::size_t kIoPointCount = 5;
 
 // What the call does instead of its work: a positive value is an errno (ENOSPC, EIO, ENOBUFS ...); the
 // others are the non-errno failures below.

@@ -16,7 +16,8 @@ namespace rutd {
 // CAN: every measurement and status is encoded once; each frame goes to the bus (when configured) and
 // to the candump log (when configured), so the log is exactly what the bus got. With a bus, frames the
 // kernel refused (full queue, failed write) are counted, reported in the status message (CanTxDrops) and
-// not logged. With a recording, every status frame after the recording failed carries RecordingError = 1.
+// not logged. RecordingError is whatever recording_failed answers at each status (the daemon: the raw
+// recording has failed, or a measurement CSV row was lost since the last status).
 class CanSink final : public MeasurementSink {
  public:
   // bus and log may be null (not configured); neither is owned, both must outlive the sink. log_stream

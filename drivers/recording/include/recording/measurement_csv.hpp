@@ -42,6 +42,10 @@ inline constexpr int kMeasurementFieldCount = 9;
 // for every status except NoMeasurement.
 bool measurement_field_valid(RutStatus status, MeasurementField field) noexcept;
 
+// One row of the CSV, '\n' included, into `line` (replaced; its capacity is reused, so a reserved line
+// allocates nothing).
+void format_measurement_row(std::string& line, std::uint64_t seq, std::int64_t t_ns, const RutMeasurement& measurement);
+
 // Writes the CSV to a stream it does not own (which must outlive the writer). Not thread-safe: one
 // writer thread. Steady state allocates nothing (one reused line buffer).
 class MeasurementCsvWriter {

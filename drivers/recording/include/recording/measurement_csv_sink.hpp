@@ -1,24 +1,58 @@
 #pragma once
 // The pipeline's measurement sink for the measurement CSV (the adapter between
 // pipeline/measurement_sink.hpp and recording/measurement_csv.hpp). Called from the publish thread only.
-#include <ostream>
+#include <cstdint>
+#include <string>
 
+#include "core/io_faults.hpp"
 #include "pipeline/measurement_sink.hpp"
-#include "recording/measurement_csv.hpp"
 
 namespace rutd {
 
-// The measurement CSV (DESIGN.md, Formats), flushed per line so nothing measured is lost on a crash.
+struct MeasurementCsvStats {
+  std::uint64_t rows_written = 0;
+  std::uint64_t rows_lost = 0;  // rows whose write failed (disk full, I/O error, closed pipe)
+  bool stopped = false;         // a failure that cannot be undone (a partial row on a pipe): no more rows
+  std::string last_error;       // "PATH: cannot write the row of seq N: REASON"; empty when none
+};
+
+// The measurement CSV (DESIGN.md, Formats), one write(2) per row, so a crash or a `tail -f` sees every
+// row written so far. A row whose write fails is lost, never the rows before it: on a regular file a
+// partly written row is cut off again (ftruncate), so the file stays a valid CSV and the next rows are
+// tried as usual (the CSV resumes when the disk has room again; the gap shows in seq). On a pipe or
+// terminal a partial row cannot be taken back, so writing stops there. The first failure is logged once
+// (and the first after each resumption); every status frame after a lost row raises RecordingError
+// (failed_since_last_check).
 class MeasurementCsvSink final : public MeasurementSink {
  public:
-  explicit MeasurementCsvSink(std::ostream& out) : writer_(out, /*flush_each_line=*/true) {}
-  void publish(const FrameWork& work, const SensorHealth&) override {
-    writer_.write(work.frame.seq, work.frame.t_ns, work.measurement);
-  }
+  // Creates or truncates `path` ("-": standard output, not closed) and writes the header. Throws
+  // InputError(path, key, ...) when it cannot. `faults`: tests only (core/io_faults.hpp,
+  // IoPoint::MeasurementWrite, asked before every write()); not owned.
+  MeasurementCsvSink(const std::string& path, const std::string& key, IoFaults* faults = nullptr);
+  ~MeasurementCsvSink() override;
+  MeasurementCsvSink(const MeasurementCsvSink&) = delete;
+  MeasurementCsvSink& operator=(const MeasurementCsvSink&) = delete;
+
+  void publish(const FrameWork& work, const SensorHealth&) override;
   void publish_status(const SensorHealth&, std::int64_t) override {}
 
+  // True when a row was lost since the previous call (publish thread only: CanSink asks it per status).
+  bool failed_since_last_check();
+  // Publish thread, or after the pipeline stopped.
+  const MeasurementCsvStats& stats() const { return stats_; }
+  const std::string& path() const { return path_; }
+
  private:
-  MeasurementCsvWriter writer_;
+  std::string path_;
+  int fd_ = -1;
+  bool owns_fd_ = false;
+  bool regular_file_ = false;
+  IoFaults* faults_;
+  std::uint64_t size_ = 0;  // bytes of complete rows (and the header) in a regular file
+  std::uint64_t lost_at_last_check_ = 0;
+  bool failing_ = false;  // the last row failed (log the next failure only after a success)
+  std::string line_;
+  MeasurementCsvStats stats_;
 };
 
 }  // namespace rutd
