@@ -103,7 +103,8 @@ std::unique_ptr<FrameSource> make_camera_source(const RutdConfig& c, IoFaults* f
 // Impossible scene parameters are a start-up error naming source.synthetic.
 std::unique_ptr<FrameSource> make_synthetic_source(const RutdConfig& c, IoFaults* faults) {
   try {
-    if (c.synthetic_cycle_frames <= 0) return std::make_unique<SyntheticSource>(c.synthetic);
+    if (c.synthetic_cycle_frames <= 0)
+      return std::make_unique<SyntheticSource>(c.synthetic, SyntheticSourceConfig{}, faults);
     const SyntheticRenderer renderer(c.synthetic);
     const auto period = std::chrono::nanoseconds(static_cast<std::int64_t>(1e9 / c.synthetic.fps));
     return std::make_unique<CyclingSource>(renderer.calibration(),

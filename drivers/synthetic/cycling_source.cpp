@@ -1,9 +1,9 @@
 #include "synthetic/cycling_source.hpp"
 
-#include <cstring>
 #include <stdexcept>
 #include <thread>
 
+#include "camera_pop_fault.hpp"
 #include "core/monotonic_clock.hpp"
 
 namespace rutd {
@@ -22,14 +22,9 @@ SourceStatus CyclingSource::next(StereoFrame& f) {
     std::this_thread::sleep_until(due_);
   }
   error_.clear();
-  if (const int fault = faults_ != nullptr ? faults_->check(IoPoint::CameraPop) : 0) {
-    // The pair of this period is lost, as a camera's would be; the sequence number still advances.
-    ++seq_;
-    if (fault == io_fault::kTimeout) return SourceStatus::Timeout;
-    error_ = fault == io_fault::kShort     ? "synthetic camera: short buffer"
-             : fault == io_fault::kCorrupt ? "synthetic camera: corrupt buffer"
-                                           : std::string("synthetic camera: ") + std::strerror(fault);
-    return SourceStatus::Error;
+  if (const SourceStatus fault = check_camera_pop_fault(faults_, error_); fault != SourceStatus::Ok) {
+    ++seq_;  // the pair of this period is lost, as a camera's would be; the sequence number still advances
+    return fault;
   }
   const StereoFrame& src = frames_[seq_ % frames_.size()];
   src.left.copyTo(f.left);

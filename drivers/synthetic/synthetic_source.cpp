@@ -5,6 +5,7 @@
 #include <cmath>
 #include <ctime>
 
+#include "camera_pop_fault.hpp"
 #include "core/monotonic_clock.hpp"
 
 namespace rutd {
@@ -20,8 +21,8 @@ void sleep_until_ns(std::int64_t deadline_ns) {
 
 }  // namespace
 
-SyntheticSource::SyntheticSource(const SynthConfig& params, SyntheticSourceConfig options)
-    : renderer_(params), options_(options) {}
+SyntheticSource::SyntheticSource(const SynthConfig& params, SyntheticSourceConfig options, IoFaults* faults)
+    : renderer_(params), options_(options), faults_(faults) {}
 
 void SyntheticSource::wait_for_slot() {
   const double period_ns = 1e9 / renderer_.params().fps;
@@ -41,6 +42,11 @@ void SyntheticSource::wait_for_slot() {
 SourceStatus SyntheticSource::next(StereoFrame& frame) {
   if (options_.frame_count != 0 && produced_ >= options_.frame_count) return SourceStatus::EndOfStream;
   if (options_.paced) wait_for_slot();
+  error_.clear();
+  if (const SourceStatus fault = check_camera_pop_fault(faults_, error_); fault != SourceStatus::Ok) {
+    ++produced_;  // this period's pair is lost, as a camera's would be: its index is skipped
+    return fault;
+  }
   renderer_.render(options_.first_index + produced_, frame);
   // A live pair is stamped when rendering ends: the render stands for the exposure and read-out of a
   // real camera, and its cost is the simulator's, not latency of the pipeline that measures the pair.

@@ -186,9 +186,14 @@ TEST_F(Faults, CameraPopTimeoutsRaiseNoCameraAndCountAsTimeouts) {
 }
 
 TEST_F(Faults, CorruptAndShortCameraBuffersRaiseNoCameraAndCountAsSourceErrors) {
-  for (const char* fault : {"corrupt", "short"}) {
+  // The default cycles pre-rendered pairs; "live" renders every pair as it is popped (cycle_frames: 0).
+  const fs::path live = tmp_.path() / "live.yaml";
+  std::ofstream(live) << "source:\n  type: synthetic\n  synthetic:\n    size: 320x240\n    cycle_frames: 0\n";
+  for (const std::string fault : {"corrupt", "short", "corrupt live"}) {
     SCOPED_TRACE(fault);
-    const std::string text = run_and_check_flag(window("camera-pop", fault, 3), "", "NoCamera");
+    const bool is_live = fault.find("live") != std::string::npos;
+    const std::string text = run_and_check_flag(window("camera-pop", fault.substr(0, fault.find(' ')), 3),
+                                                is_live ? "--config " + test::quoted(live) : "", "NoCamera");
     const long long injected = number_after(text, "injected camera-pop ");
     EXPECT_GT(injected, 5);
     std::smatch m;  // "errors SOURCE/STAGE/SINK" of the final stats line

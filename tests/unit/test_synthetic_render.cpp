@@ -1,5 +1,6 @@
 // Rendered images of the synthetic renderer and the synthetic source: consistency with the calibration,
 // world-fixed texture, determinism, texture contrast, sizes; render times are printed, not asserted.
+#include <cerrno>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -11,6 +12,7 @@
 #include <opencv2/core/utility.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "core/io_faults.hpp"
 #include "synthetic/synthetic_renderer.hpp"
 #include "synthetic/synthetic_source.hpp"
 
@@ -303,6 +305,44 @@ TEST(SyntheticSource, PacedFramesCarryIncreasingMonotonicTimes) {
     EXPECT_EQ(frame.clock, ClockKind::Monotonic);
     EXPECT_GT(frame.t_ns, last);
     last = frame.t_ns;
+  }
+}
+
+// The live renderer under camera-pop faults (tests' fault injection): every third pop a corrupt buffer,
+// then timeouts. A lost pop loses that period's pair (its index is skipped, as a camera's frame would
+// be); the pairs delivered are still exactly the renderer's pairs for their index.
+TEST(SyntheticSource, CameraPopFaultsLoseThatPeriodsPair) {
+  SynthConfig p;
+  p.rig.image_size = {96, 64};
+  const SyntheticRenderer reference(p);
+  StereoFrame frame, expected;
+  for (const int fault : {io_fault::kCorrupt, io_fault::kShort, EIO, io_fault::kTimeout}) {
+    SCOPED_TRACE(fault);
+    IoFaults faults;
+    faults.set(IoPoint::CameraPop, {.fault = fault, .every = 3});
+    SyntheticSource source(p, {.paced = false, .first_index = 0, .frame_count = 9}, &faults);
+    int ok = 0, failed = 0;
+    for (std::uint64_t i = 0; i < 9; ++i) {
+      const SourceStatus status = source.next(frame);
+      if (i % 3 == 2) {
+        ++failed;
+        EXPECT_EQ(status, fault == io_fault::kTimeout ? SourceStatus::Timeout : SourceStatus::Error);
+        if (fault != io_fault::kTimeout) {
+          EXPECT_NE(source.error_message().find("synthetic camera: "), std::string::npos);
+        }
+        continue;
+      }
+      ++ok;
+      ASSERT_EQ(status, SourceStatus::Ok);
+      EXPECT_TRUE(source.error_message().empty());
+      EXPECT_EQ(frame.seq, i);
+      reference.render(i, expected);
+      EXPECT_EQ(cv::norm(frame.left, expected.left, cv::NORM_INF), 0);
+    }
+    EXPECT_EQ(ok, 6);
+    EXPECT_EQ(failed, 3);
+    EXPECT_EQ(faults.injected(IoPoint::CameraPop), 3u);
+    EXPECT_EQ(source.next(frame), SourceStatus::EndOfStream);
   }
 }
 

@@ -4,6 +4,7 @@
 #include <string>
 
 #include "core/frame_source.hpp"
+#include "core/io_faults.hpp"
 #include "synthetic/synthetic_renderer.hpp"
 
 namespace rutd {
@@ -21,8 +22,10 @@ struct SyntheticSourceConfig {
 // when the frame's buffers do not fit.
 class SyntheticSource : public FrameSource {
  public:
-  // Throws std::invalid_argument for impossible parameters (see SyntheticRenderer).
-  explicit SyntheticSource(const SynthConfig& params, SyntheticSourceConfig options = {});
+  // Throws std::invalid_argument for impossible parameters (see SyntheticRenderer). faults: tests only
+  // (core/io_faults.hpp), IoPoint::CameraPop, asked once per pair after the paced wait: the pair of that
+  // period is lost as a timeout, or refused as a short or corrupt buffer (Error); not owned.
+  explicit SyntheticSource(const SynthConfig& params, SyntheticSourceConfig options = {}, IoFaults* faults = nullptr);
 
   SourceStatus next(StereoFrame& frame) override;
   const StereoCalibration& calibration() const override { return renderer_.calibration(); }
@@ -39,7 +42,8 @@ class SyntheticSource : public FrameSource {
   std::uint64_t produced_ = 0;
   std::int64_t schedule_start_ns_ = -1;  // CLOCK_MONOTONIC time of the schedule's pair 0
   std::uint64_t schedule_first_ = 0;     // produced_ count at schedule_start_ns_
-  std::string error_;                    // always empty: rendering cannot fail once constructed
+  std::string error_;                    // empty but after an injected fault: rendering cannot fail
+  IoFaults* faults_;
 };
 
 }  // namespace rutd
