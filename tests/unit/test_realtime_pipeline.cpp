@@ -21,9 +21,10 @@
 #include "synthetic/synthetic_renderer.hpp"
 
 // ---- Allocation counter -------------------------------------------------------------------------
-// Counts heap allocations made by any thread while g_counting is set. Without ThreadSanitizer the
-// malloc family itself is replaced (OpenCV allocates cv::Mat data with posix_memalign, not operator
-// new); ThreadSanitizer owns malloc, so there only operator new is counted.
+// Counts heap allocations made by any thread while g_counting is set: every call of the malloc family
+// (OpenCV allocates cv::Mat data with posix_memalign, not operator new). Without a sanitizer the malloc
+// family itself is replaced; AddressSanitizer and ThreadSanitizer own malloc (a replacement would run
+// before their run-time is set up), so there their allocator's hooks count instead.
 namespace {
 std::atomic<bool> g_counting{false};
 std::atomic<std::uint64_t> g_allocations{0};
@@ -32,26 +33,20 @@ void note_allocation() noexcept {
 }
 }  // namespace
 
-#if defined(__SANITIZE_THREAD__)
-#define RUTD_COUNTS_MALLOC 0
-void* operator new(std::size_t n) {
-  note_allocation();
-  if (void* p = std::malloc(n == 0 ? 1 : n)) return p;
-  throw std::bad_alloc();
-}
-void* operator new[](std::size_t n) { return operator new(n); }
-void* operator new(std::size_t n, const std::nothrow_t&) noexcept {
-  note_allocation();
-  return std::malloc(n == 0 ? 1 : n);
-}
-void* operator new[](std::size_t n, const std::nothrow_t& t) noexcept { return operator new(n, t); }
-// Out of line: inlined into a new/delete pair, GCC would take the free() for a mismatched delete.
-[[gnu::noinline]] void operator delete(void* p) noexcept { std::free(p); }
-[[gnu::noinline]] void operator delete[](void* p) noexcept { std::free(p); }
-[[gnu::noinline]] void operator delete(void* p, std::size_t) noexcept { std::free(p); }
-[[gnu::noinline]] void operator delete[](void* p, std::size_t) noexcept { std::free(p); }
+#if defined(__SANITIZE_THREAD__) || defined(__SANITIZE_ADDRESS__)
+// sanitizer/allocator_interface.h, which GCC does not install; libasan and libtsan define it.
+extern "C" int __sanitizer_install_malloc_and_free_hooks(void (*malloc_hook)(const volatile void*, std::size_t),
+                                                         void (*free_hook)(const volatile void*));
+namespace {
+void on_malloc(const volatile void*, std::size_t) { note_allocation(); }
+void on_free(const volatile void*) {}
+const int g_hooks_installed = __sanitizer_install_malloc_and_free_hooks(on_malloc, on_free);
+bool g_hooks_installed_or_replaced() { return g_hooks_installed != 0; }
+}  // namespace
 #else
-#define RUTD_COUNTS_MALLOC 1
+namespace {
+bool g_hooks_installed_or_replaced() { return true; }
+}  // namespace
 extern "C" {
 void* __libc_malloc(std::size_t);
 void* __libc_calloc(std::size_t, std::size_t);
@@ -519,8 +514,20 @@ std::uint64_t allocations_in_steady_state(RealtimePipeline& pipeline, FakeSink& 
   std::printf("counted %llu acquired / %llu published frames: %llu allocations (%s)\n",
               static_cast<unsigned long long>(s.acquired - from), static_cast<unsigned long long>(s.published),
               static_cast<unsigned long long>(g_allocations.load()),
-              RUTD_COUNTS_MALLOC ? "malloc family" : "operator new only, under ThreadSanitizer");
+              g_hooks_installed_or_replaced() ? "malloc family" : "NOT COUNTED: the allocator hooks were refused");
   return g_allocations.load();
+}
+
+// The counter itself counts: one malloc inside the counting window is seen (else every "0 allocations"
+// below would pass vacuously, e.g. if a sanitizer refused the hooks).
+TEST(RealtimePipeline, AllocationCounterSeesMalloc) {
+  ASSERT_TRUE(g_hooks_installed_or_replaced());
+  g_allocations.store(0);
+  g_counting.store(true);
+  void* volatile p = std::malloc(123);
+  g_counting.store(false);
+  std::free(p);
+  EXPECT_EQ(g_allocations.load(), 1u);
 }
 
 TEST(RealtimePipeline, FakeStagesAllocateNothingPerFrameWhenFreshestWins) {
