@@ -44,10 +44,20 @@ class GpuEngine : public DisparityEngine {
     const gpu::DicParams p = dic_params(dic, left.rows);
     if (fallback_ || !gpu::check_dic_params(p).empty()) return false;
     if (!run(left, right, band, &p, disparity)) return false;
+    // Refined windows, as the CPU DIC counts them: pixels, or columns of each row block (a block's rows
+    // are all refined or all NaN).
     stats = DicStats{};
-    for (int y = 0; y < disparity.rows; ++y) {
-      const float* d = disparity.ptr<float>(y);
-      for (int x = 0; x < disparity.cols; ++x) stats.refined += !std::isnan(d[x]);
+    if (p.column_windows) {
+      const gpu::ColumnBlocks blocks(p, disparity.rows);
+      for (int b = 0; b < blocks.count; ++b) {
+        const float* d = disparity.ptr<float>(blocks.begin(b));
+        for (int x = 0; x < disparity.cols; ++x) stats.refined += !std::isnan(d[x]);
+      }
+    } else {
+      for (int y = 0; y < disparity.rows; ++y) {
+        const float* d = disparity.ptr<float>(y);
+        for (int x = 0; x < disparity.cols; ++x) stats.refined += !std::isnan(d[x]);
+      }
     }
     return true;
   }
@@ -133,6 +143,8 @@ gpu::DicParams dic_params(const DicConfig& c, int rows) {
   p.min_gradient = static_cast<float>(c.min_gradient);
   p.min_zncc = static_cast<float>(c.min_zncc);
   p.max_sigma_px = static_cast<float>(c.max_sigma_px);
+  p.column_windows = c.column_windows;
+  p.column_block_rows = c.column_block_rows;
   return p;
 }
 

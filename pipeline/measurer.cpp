@@ -180,11 +180,10 @@ void StereoMeasurer::match_in_band(FrameWork& w, MatchContext& context, bool reu
   auto t0 = Clock::now();
   w.diag.starts_reused = false;
   if (config_.dic) {
-    // The GPU engine matches and refines on its device, per pixel: disparity_ms covers both, dic_ms
-    // stays 0, and its starts are never reused (engine_refined stays 0).
-    DicConfig pixels = dic;
-    pixels.column_windows = false;
-    if (context.engine->compute_refined(w.left_strip, w.right_strip, w.diag.band, pixels, w.disparity, w.diag.dic)) {
+    // The GPU engine matches and refines on its device, with the same windows as the CPU DIC below
+    // (column windows included; it matches the strips unbinned): disparity_ms covers both, dic_ms stays
+    // 0, and its starts are never reused (engine_refined stays 0).
+    if (context.engine->compute_refined(w.left_strip, w.right_strip, w.diag.band, dic, w.disparity, w.diag.dic)) {
       w.diag.disparity_ms = ms_since(t0);
       w.diag.dic_ms = 0;
       return;

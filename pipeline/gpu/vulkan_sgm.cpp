@@ -194,6 +194,7 @@ struct CensusPush {
 struct DicPush {
   std::int32_t width, height, words_per_row, h, hh, max_iterations, step, row_step, first_row, columns, first_order;
   float tolerance, max_shift, max_gradient, min_gradient, min_zncc, max_sigma;
+  std::int32_t rows, blocks;  // column windows
 };
 
 std::uint32_t groups(int n, int size) { return static_cast<std::uint32_t>((n + size - 1) / size); }
@@ -265,7 +266,7 @@ struct VulkanSgm::Impl {
       const auto tie_dic = [](const DicParams& d) {
         return std::tie(d.half_window, d.half_height, d.max_iterations, d.tolerance_px, d.step, d.row_step, d.row_begin,
                         d.row_end, d.first_order, d.max_shift_px, d.max_gradient, d.min_gradient, d.min_zncc,
-                        d.max_sigma_px);
+                        d.max_sigma_px, d.column_windows, d.column_block_rows);
       };
       return valid && o.valid && dic == o.dic && tie_sgm(*this) == tie_sgm(o) &&
              (!dic || tie_dic(dic_params) == tie_dic(o.dic_params));
@@ -282,13 +283,13 @@ struct VulkanSgm::Impl {
   };
   std::array<Slot, kSlots> slots;
   int next_slot = 0;
-  Kernel census, cost, aggregate, wta, lr_median, bspline, dic;
+  Kernel census, cost, aggregate, wta, lr_median, bspline, dic, dic_columns;  // dic.comp in its two modes
   bool lost = false;
 
   ~Impl() {
     if (device) {
       vkDeviceWaitIdle(device);
-      for (Kernel* k : {&census, &cost, &aggregate, &wta, &lr_median, &bspline, &dic}) {
+      for (Kernel* k : {&census, &cost, &aggregate, &wta, &lr_median, &bspline, &dic, &dic_columns}) {
         vkDestroyPipeline(device, k->pipeline, nullptr);
         vkDestroyPipelineLayout(device, k->layout, nullptr);
         vkDestroyDescriptorSetLayout(device, k->set_layout, nullptr);
@@ -548,7 +549,7 @@ struct VulkanSgm::Impl {
     }
     const VkDescriptorPoolSize size{VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 48 * kSlots};
     auto dpi = info_struct<VkDescriptorPoolCreateInfo>(VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO);
-    dpi.maxSets = 7 * kSlots;
+    dpi.maxSets = 8 * kSlots;
     dpi.poolSizeCount = 1;
     dpi.pPoolSizes = &size;
     check(vkCreateDescriptorPool(device, &dpi, nullptr, &descriptors), "vkCreateDescriptorPool");
@@ -584,9 +585,11 @@ struct VulkanSgm::Impl {
     bspline = make_kernel(kBsplineSpv, sizeof kBsplineSpv, sizeof(CensusPush), [](const FrameBuffers& f) -> Bindings {
       return {{&f.image_left}, {&f.image_right}, {&f.spline_left}, {&f.spline_right}};
     });
-    dic = make_kernel(kDicSpv, sizeof kDicSpv, sizeof(DicPush), [](const FrameBuffers& f) -> Bindings {
+    const auto dic_bindings = [](const FrameBuffers& f) -> Bindings {
       return {{&f.image_left}, {&f.spline_left}, {&f.spline_right}, {&f.disparity}, {&f.refined}};
-    });
+    };
+    dic = make_kernel(kDicSpv, sizeof kDicSpv, sizeof(DicPush), dic_bindings, {0});
+    dic_columns = make_kernel(kDicSpv, sizeof kDicSpv, sizeof(DicPush), dic_bindings, {1});
   }
 
   void barrier(VkCommandBuffer cb, VkPipelineStageFlags src, VkPipelineStageFlags dst) {
@@ -663,20 +666,45 @@ struct VulkanSgm::Impl {
     barrier(cb, compute, compute | transfer);
     stamp(cb, slot, 5);
     if (dic_params) {
-      // The grid: columns x % step == 0, rows y % row_step == 0 in [row_begin, row_end). One subgroup per
-      // pixel (dic.comp), at most 64 / subgroup_size of them per workgroup; a subgroup smaller than the
-      // reported size only means fewer workgroups would have done.
+      // One subgroup per window (dic.comp), at most 64 / subgroup_size of them per workgroup; a subgroup
+      // smaller than the reported size only means fewer workgroups would have done.
       const DicParams& d = *dic_params;
-      const int begin = std::max(d.row_begin, 0), end = std::min(d.row_end, height);
-      const int first_row = (begin + d.row_step - 1) / d.row_step * d.row_step;
-      const int rows = first_row < end ? (end - 1 - first_row) / d.row_step + 1 : 0;
-      const int columns = (width + d.step - 1) / d.step;
-      const DicPush push{
-          width,          height,         words_per_row,  d.half_window, d.half_height,         d.max_iterations,
-          d.step,         d.row_step,     first_row,      columns,       d.first_order ? 1 : 0, d.tolerance_px,
-          d.max_shift_px, d.max_gradient, d.min_gradient, d.min_zncc,    d.max_sigma_px};
       const int per_group = std::max(1, 64 / static_cast<int>(subgroup_size));
-      if (rows > 0) dispatch(cb, slot, dic, push, groups(columns, per_group), static_cast<std::uint32_t>(rows), 1);
+      DicPush push{};
+      push.width = width;
+      push.height = height;
+      push.words_per_row = words_per_row;
+      push.h = d.half_window;
+      push.hh = d.half_height;
+      push.max_iterations = d.max_iterations;
+      push.step = d.step;
+      push.row_step = d.row_step;
+      push.first_order = d.first_order ? 1 : 0;
+      push.tolerance = d.tolerance_px;
+      push.max_shift = d.max_shift_px;
+      push.max_gradient = d.max_gradient;
+      push.min_gradient = d.min_gradient;
+      push.min_zncc = d.min_zncc;
+      push.max_sigma = d.max_sigma_px;
+      if (d.column_windows) {
+        // Every column of every row block (workgroup y).
+        const ColumnBlocks blocks(d, height);
+        push.hh = blocks.half_height();
+        push.first_row = blocks.row_begin;
+        push.columns = width;
+        push.rows = blocks.rows;
+        push.blocks = blocks.count;
+        if (blocks.count > 0)
+          dispatch(cb, slot, dic_columns, push, groups(width, per_group), static_cast<std::uint32_t>(blocks.count), 1);
+      } else {
+        // The grid: columns x % step == 0, rows y % row_step == 0 in [row_begin, row_end).
+        const int begin = std::max(d.row_begin, 0), end = std::min(d.row_end, height);
+        push.first_row = (begin + d.row_step - 1) / d.row_step * d.row_step;
+        const int rows = push.first_row < end ? (end - 1 - push.first_row) / d.row_step + 1 : 0;
+        push.columns = (width + d.step - 1) / d.step;
+        if (rows > 0)
+          dispatch(cb, slot, dic, push, groups(push.columns, per_group), static_cast<std::uint32_t>(rows), 1);
+      }
       barrier(cb, compute, transfer);
     }
     stamp(cb, slot, 6);

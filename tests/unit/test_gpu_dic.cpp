@@ -1,6 +1,7 @@
 // The DIC as the GPU engine runs it (pipeline/gpu/: its C++ reference, and the Vulkan engine end to end)
 // against images with KNOWN fractional disparities (known_disparity.hpp, made independently of
-// the code under test), and against the CPU DIC of dic_refine.hpp on the same initial disparities.
+// the code under test), and against the CPU DIC of dic_refine.hpp on the same initial disparities: per
+// pixel, and with column windows (one window per column and row block, the measurer's default).
 #include <cmath>
 #include <cstdio>
 #include <random>
@@ -108,6 +109,126 @@ TEST(GpuDic, EngineRefinesOnTheDeviceAsTheReference) {
     EXPECT_LE(one_side, stats.refined / 200) << t.d0;
     EXPECT_GT(stats.refined, 0) << t.d0;
     EXPECT_LT(e.rms, 0.05) << t.d0;
+  }
+}
+
+// Column windows on a strip whose disparity slopes across and down it: rows [row_begin, row_end) of
+// `size`, in blocks of about block_rows rows (0: one block).
+struct ColumnCase {
+  cv::Size size;
+  int row_begin, row_end, block_rows;
+  double d0, slope, slope_y;
+  unsigned seed;
+};
+const ColumnCase kColumnCases[] = {
+    {{320, 62}, 7, 55, 0, 20.35, 0.0, 0.0, 23},  {{320, 62}, 7, 55, 0, 20.65, 0.08, -0.04, 24},
+    {{320, 48}, 0, 48, 0, 24.5, 0.0, 0.06, 25},  {{321, 100}, 3, 97, 16, 22.2, 0.05, 0.03, 26},
+    {{257, 71}, 5, 66, 7, 20.8, 0.04, 0.02, 27},
+};
+
+// Truth of a column case at (x, y).
+double column_truth(const ColumnCase& c, int x, int y) { return c.d0 + c.slope * x + c.slope_y * y; }
+
+gpu::DicParams column_params(const ColumnCase& c) {
+  gpu::DicParams p;
+  p.column_windows = true;
+  p.column_block_rows = c.block_rows;
+  p.row_begin = c.row_begin;
+  p.row_end = c.row_end;
+  return p;
+}
+
+// Windows refined (a block's first row at each column), and pixels refined outside [row_begin, row_end).
+std::pair<int, int> column_windows_refined(const cv::Mat& d, const gpu::DicParams& p) {
+  const gpu::ColumnBlocks blocks(p, d.rows);
+  int windows = 0, outside = 0;
+  for (int b = 0; b < blocks.count; ++b)
+    for (int x = 0; x < d.cols; ++x) windows += std::isfinite(d.at<float>(blocks.begin(b), x));
+  for (int y = 0; y < d.rows; ++y)
+    for (int x = 0; x < d.cols; ++x) outside += (y < p.row_begin || y >= p.row_end) && std::isfinite(d.at<float>(y, x));
+  return {windows, outside};
+}
+
+// RMS error against the truth over x >= 64.
+double column_rms(const cv::Mat& d, const ColumnCase& c) {
+  double sum = 0;
+  int n = 0;
+  for (int y = 0; y < d.rows; ++y) {
+    for (int x = 64; x < d.cols; ++x) {
+      const float v = d.at<float>(y, x);
+      if (!std::isfinite(v)) continue;
+      sum += (v - column_truth(c, x, y)) * (v - column_truth(c, x, y));
+      ++n;
+    }
+  }
+  return n > 0 ? std::sqrt(sum / n) : 1e30;
+}
+
+// The reference's column windows are the CPU DIC's: the same rows, blocks, starts and write-back, so the
+// two reach the same optimum (the CPU in double, warm-started from the neighbour) on every pixel.
+TEST(GpuDic, ReferenceColumnWindowsAreTheCpuColumnWindows) {
+  auto sgm = make_cpu_engine(EngineKind::SgmRef);
+  for (const ColumnCase& c : kColumnCases) {
+    const Pair pair = render_pair(c.d0, c.slope, c.size, c.seed, 0.7, c.slope_y);
+    cv::Mat initial;
+    sgm->compute(pair.left, pair.right, {16, 48}, initial);
+    const gpu::DicParams p = column_params(c);
+    const cv::Mat gpu_dic = reference_dic(pair, initial, p);
+    cv::Mat cpu_dic = initial.clone();
+    DicConfig config;
+    config.column_windows = true;
+    config.column_block_rows = c.block_rows;
+    config.row_begin = c.row_begin;
+    config.row_end = c.row_end;
+    DicWorkspace ws;
+    const DicStats cpu_stats = refine_disparity_dic(pair.left, pair.right, cpu_dic, config, ws);
+    const auto [diff, one_side] = compare(gpu_dic, cpu_dic);
+    const auto [windows, outside] = column_windows_refined(gpu_dic, p);
+    const double rms = column_rms(gpu_dic, c);
+    std::printf(
+        "%dx%d rows %d..%d blocks of %d: %d windows (CPU %d), rms %.4f px (CPU %.4f); |diff| %.5f px, %d "
+        "pixels on one side\n",
+        c.size.width, c.size.height, c.row_begin, c.row_end, c.block_rows, windows, cpu_stats.refined, rms,
+        column_rms(cpu_dic, c), diff, one_side);
+    EXPECT_LT(diff, 1.0 / 64) << c.seed;
+    EXPECT_LE(std::abs(windows - cpu_stats.refined), cpu_stats.refined / 100) << c.seed;
+    EXPECT_LE(one_side, (c.row_end - c.row_begin) * (cpu_stats.refined / 100)) << c.seed;
+    EXPECT_EQ(outside, 0) << c.seed;
+    // Columns left of the band's widest disparity (63) have no start.
+    EXPECT_GT(windows, 0.9 * (c.size.width - 64) * gpu::ColumnBlocks(p, c.size.height).count) << c.seed;
+    EXPECT_LT(rms, 0.03) << c.seed;
+  }
+}
+
+TEST(GpuDic, EngineRefinesColumnWindowsOnTheDeviceAsTheReference) {
+  auto engine = make_engine(EngineKind::Gpu);
+  for (const ColumnCase& c : kColumnCases) {
+    const Pair pair = render_pair(c.d0, c.slope, c.size, c.seed, 0.7, c.slope_y);
+    DicConfig config;
+    config.column_windows = true;
+    config.column_block_rows = c.block_rows;
+    config.row_begin = c.row_begin;
+    config.row_end = c.row_end;
+    cv::Mat refined;
+    DicStats stats;
+    if (!engine->compute_refined(pair.left, pair.right, {16, 48}, config, refined, stats))
+      GTEST_SKIP() << "no usable Vulkan device: the GPU engine runs as sgmref, which does not refine";
+    cv::Mat initial;
+    make_cpu_engine(EngineKind::SgmRef)->compute(pair.left, pair.right, {16, 48}, initial);
+    const gpu::DicParams p = column_params(c);
+    const cv::Mat expected = reference_dic(pair, initial, p);
+    const auto [diff, one_side] = compare(refined, expected);
+    const auto [windows, outside] = column_windows_refined(expected, p);
+    const double rms = column_rms(refined, c);
+    std::printf(
+        "%dx%d blocks of %d: %d windows refined (reference %d), rms %.4f px; against the reference %.6f px, "
+        "%d pixels on one side\n",
+        c.size.width, c.size.height, c.block_rows, stats.refined, windows, rms, diff, one_side);
+    EXPECT_LT(diff, 1.0 / 128) << c.seed;
+    EXPECT_LE(one_side, (c.row_end - c.row_begin) * (windows / 200)) << c.seed;
+    EXPECT_LE(std::abs(stats.refined - windows), windows / 200) << c.seed;
+    EXPECT_EQ(column_windows_refined(refined, p).second, 0) << c.seed;
+    EXPECT_LT(rms, 0.03) << c.seed;
   }
 }
 

@@ -1,26 +1,37 @@
 #version 450
-// Sub-pixel refinement by digital image correlation, one subgroup per pixel of the grid (x % step == 0,
-// y % row_step == 0, rows [row_begin, row_end)) with a valid disparity d0: inverse-compositional
-// Gauss-Newton on the zero-normalised SSD over the first-order warp x_right = x + c + a xi + b eta
-// (start a = 1, b = 0, c = -d0), the right image sampled by its cubic B-spline along rows. The maths and
-// the rejections are pipeline/dic_refine.hpp's (DicConfig), in float, as dic_reference.cpp; no warm start
-// from the neighbour (pixels are independent here). The subgroup's invocations take the window's pixels
-// in turn and every sum is a subgroup sum, so all invocations hold the same totals and take the same
-// branches; the sums' order differs from the reference's, which agrees to float rounding. Works for any
-// subgroup size: each subgroup walks the grid's columns with the stride of the whole dispatch.
-// Workgroup (x, grid row); the host fills `refined` with NaN first, so pixels not refined stay NaN.
+// Sub-pixel refinement by digital image correlation: inverse-compositional Gauss-Newton on the
+// zero-normalised SSD over the first-order warp x_right = x + c + a xi + b eta (start a = 1, b = 0,
+// c = -d0), the right image sampled by its cubic B-spline along rows. The maths and the rejections are
+// pipeline/dic_refine.hpp's (DicConfig), in float, as dic_reference.cpp; no warm start from the
+// neighbour (windows are independent here). One subgroup per window: its invocations take the window's
+// pixels in turn and every sum is a subgroup sum, so all invocations hold the same totals and take the
+// same branches; the sums' order differs from the reference's, which agrees to float rounding. Works for
+// any subgroup size: each subgroup walks the columns with the stride of the whole dispatch. The host
+// fills `refined` with NaN first, so pixels not refined stay NaN.
+// Two modes (specialization constant 0):
+// - per pixel: one window around each pixel of the grid (x % step == 0, y % row_step == 0, rows
+//   [row_begin, row_end)) with a valid disparity d0; workgroup (x, grid row).
+// - column windows (dic.hpp DicParams::column_windows, the geometry of pipeline/dic_refine.cpp): one
+//   window per column and row block, as tall as the block and centred on its middle row yc, started
+//   from the median of the column's valid disparities in the block; every row y of the block gets
+//   -(c + b (y - yc)); workgroup (x, block).
 #extension GL_KHR_shader_subgroup_basic : require
 #extension GL_KHR_shader_subgroup_arithmetic : require
 #extension GL_EXT_control_flow_attributes : require
 layout(local_size_x = 64) in;
+layout(constant_id = 0) const bool kColumnWindows = false;
 layout(std430, binding = 0) readonly buffer Left { uint left_px[]; };
 layout(std430, binding = 1) readonly buffer CoefL { float coef_l[]; };
 layout(std430, binding = 2) readonly buffer CoefR { float coef_r[]; };
 layout(std430, binding = 3) readonly buffer Initial { float initial[]; };
 layout(std430, binding = 4) writeonly buffer Refined { float refined[]; };
 layout(push_constant) uniform Params {
+  // hh: the window's half height (per pixel), or the half height the convergence test weighs the row
+  // slope with (column windows: ColumnBlocks::half_height). first_row: the first grid row (per pixel),
+  // or row_begin (column windows). rows, blocks: column windows' rows from row_begin and row blocks.
   int width, height, words_per_row, h, hh, max_iterations, step, row_step, first_row, columns, first_order;
   float tolerance, max_shift, max_gradient, min_gradient, min_zncc, max_sigma;
+  int rows, blocks;
 } pc;
 #include "common.glsl"
 
@@ -49,12 +60,9 @@ float left_dx(int cx, int r) {
   return fx;
 }
 
-void refine(int x, int y) {
-  const int i = y * pc.width + x;
-  const float d0 = initial[i];
-  if (isnan(d0) || pc.width < 4) return;
-  const int x0 = max(0, x - pc.h), x1 = min(pc.width - 1, x + pc.h);
-  const int y0 = max(0, y - pc.hh), y1 = min(pc.height - 1, y + pc.hh);
+// One window, columns [x0, x1] and rows [y0, y1] around (x, y), from d0: true when it converged and
+// passed every test, with the warp's b and c. Uniform in the subgroup.
+bool solve(int x, int y, int x0, int x1, int y0, int y1, float d0, out float b_out, out float c_out) {
   const int wx = x1 - x0 + 1, npx = wx * (y1 - y0 + 1);
   const float n = float(npx);
   const int lane = int(gl_SubgroupInvocationID), lanes = int(gl_SubgroupSize);
@@ -88,7 +96,7 @@ void refine(int x, int y) {
   for (int k = 0; k < 3; ++k) { sd_sum[k] = subgroupAdd(sd_sum[k]); sd_fs[k] = subgroupAdd(sd_fs[k]); }
   precise const float f_mean = f_sum / n;
   precise const float f2 = ff - f_sum * f_mean;
-  if (hm[0] < pc.min_gradient * pc.min_gradient * n || !(f2 > 0.0)) return;
+  if (hm[0] < pc.min_gradient * pc.min_gradient * n || !(f2 > 0.0)) return false;
   const float norm = sqrt(f2);
   precise float sd_f[3];
   for (int k = 0; k < 3; ++k) sd_f[k] = sd_fs[k] - f_mean * sd_sum[k];
@@ -98,7 +106,7 @@ void refine(int x, int y) {
     precise const float c01 = hm[4] * hm[2] - hm[1] * hm[5];
     precise const float c02 = hm[1] * hm[4] - hm[3] * hm[2];
     precise const float det = hm[0] * c00 + hm[1] * c01 + hm[2] * c02;
-    if (!(det > 1e-12 * hm[0] * hm[3] * hm[5])) return;
+    if (!(det > 1e-12 * hm[0] * hm[3] * hm[5])) return false;
     const float s = 1.0 / det;
     inv[0] = c00 * s; inv[1] = c01 * s; inv[2] = c02 * s;
     inv[3] = (hm[0] * hm[5] - hm[2] * hm[2]) * s;
@@ -115,7 +123,7 @@ void refine(int x, int y) {
     for (int corner = 0; corner < 4; ++corner) {
       precise const float X = float(x) + c + a * float((corner & 1) == 0 ? x0 - x : x1 - x) +
                               b * float((corner & 2) == 0 ? y0 - y : y1 - y);
-      if (!(X >= 0.0 && X <= last)) return;
+      if (!(X >= 0.0 && X <= last)) return false;
     }
     precise float g_sum = 0.0, gg = 0.0, fg = 0.0;
     precise float sd_g[3] = float[3](0.0, 0.0, 0.0);
@@ -151,7 +159,7 @@ void refine(int x, int y) {
     for (int k = 0; k < 3; ++k) sd_g[k] = subgroupAdd(sd_g[k]);
     precise const float g_mean = g_sum / n;
     precise const float g2 = gg - g_sum * g_mean;
-    if (!(g2 > 1e-6)) return;
+    if (!(g2 > 1e-6)) return false;
     precise const float fgc = fg - f_sum * g_mean;
     const float inv_g_norm = 1.0 / sqrt(g2);
     precise const float kk = norm * inv_g_norm;
@@ -167,25 +175,86 @@ void refine(int x, int y) {
     a = na; b = nb; c = nc;
     if (isnan(c) || isinf(c) || abs(a - 1.0) > pc.max_gradient || abs(b) > pc.max_gradient ||
         abs(-c - d0) > pc.max_shift)
-      return;
+      return false;
     precise const float corner2 = du * du + float(pc.h * pc.h) * dux * dux + float(pc.hh * pc.hh) * duy * duy;
     if (pc.tolerance > 0.0 && corner2 < pc.tolerance * pc.tolerance) {
       if (pc.max_sigma > 0.0) {
         const float unknowns = pc.first_order != 0 ? 3.0 : 1.0;
-        if (n <= unknowns) return;
+        if (n <= unknowns) return false;
         const float r2 = max(0.0, 2.0 * f2 * (1.0 - zncc));
         const float variance = r2 / (n - unknowns) * inv[0];
-        if (!(variance <= pc.max_sigma * pc.max_sigma)) return;
+        if (!(variance <= pc.max_sigma * pc.max_sigma)) return false;
       }
-      if (zncc >= pc.min_zncc && subgroupElect()) refined[i] = -c;
-      return;
+      b_out = b;
+      c_out = c;
+      return zncc >= pc.min_zncc;
     }
+  }
+  return false;
+}
+
+void refine_pixel(int x, int y) {
+  const float d0 = initial[y * pc.width + x];
+  if (isnan(d0)) return;
+  const int x0 = max(0, x - pc.h), x1 = min(pc.width - 1, x + pc.h);
+  const int y0 = max(0, y - pc.hh), y1 = min(pc.height - 1, y + pc.hh);
+  float b, c;
+  if (solve(x, y, x0, x1, y0, y1, d0, b, c) && subgroupElect()) refined[y * pc.width + x] = -c;
+}
+
+bool valid_disparity(float d) { return !isnan(d) && !isinf(d); }
+
+// The start of the column window at x over rows [y0, y1]: the median of the column's valid initial
+// disparities there, the element nth_element puts at n / 2 (dic_refine.cpp): the value v with
+// #(values < v) <= n / 2 < #(values <= v), found by counting (a block is tens of rows). False when fewer
+// than a quarter of the rows are valid. Uniform in the subgroup.
+bool column_start(int x, int y0, int y1, out float start) {
+  const int lane = int(gl_SubgroupInvocationID), lanes = int(gl_SubgroupSize);
+  int count = 0;
+  for (int r = y0 + lane; r <= y1; r += lanes) count += valid_disparity(initial[r * pc.width + x]) ? 1 : 0;
+  const int n = subgroupAdd(count);
+  if (n == 0 || 4 * n < y1 - y0 + 1) return false;
+  const int k = n / 2;
+  float found = uintBitsToFloat(0x7F800000u);  // +inf: no candidate on this invocation
+  for (int r = y0 + lane; r <= y1; r += lanes) {
+    const float v = initial[r * pc.width + x];
+    if (!valid_disparity(v)) continue;
+    int less = 0, less_equal = 0;
+    for (int s = y0; s <= y1; ++s) {
+      const float u = initial[s * pc.width + x];
+      if (!valid_disparity(u)) continue;
+      less += u < v ? 1 : 0;
+      less_equal += u <= v ? 1 : 0;
+    }
+    if (less <= k && k < less_equal) found = min(found, v);  // every such v is the same value
+  }
+  start = subgroupMin(found);
+  return true;
+}
+
+int block_begin(int b) { return pc.first_row + pc.rows * b / pc.blocks; }
+
+void refine_column(int x, int block) {
+  const int y0 = block_begin(block), y1 = block_begin(block + 1) - 1, yc = (y0 + y1) / 2;
+  float d0;
+  if (!column_start(x, y0, y1, d0)) return;
+  const int x0 = max(0, x - pc.h), x1 = min(pc.width - 1, x + pc.h);
+  float b, c;
+  if (!solve(x, yc, x0, x1, y0, y1, d0, b, c)) return;
+  for (int r = y0 + int(gl_SubgroupInvocationID); r <= y1; r += int(gl_SubgroupSize)) {
+    precise const float d = -(c + b * float(r - yc));
+    refined[r * pc.width + x] = d;
   }
 }
 
 void main() {
-  const int y = pc.first_row + int(gl_WorkGroupID.y) * pc.row_step;
+  if (pc.width < 4) return;
   const int stride = int(gl_NumWorkGroups.x * gl_NumSubgroups);
-  for (int col = int(gl_WorkGroupID.x * gl_NumSubgroups + gl_SubgroupID); col < pc.columns; col += stride)
-    refine(col * pc.step, y);
+  const int first = int(gl_WorkGroupID.x * gl_NumSubgroups + gl_SubgroupID);
+  if (kColumnWindows) {
+    for (int x = first; x < pc.width; x += stride) refine_column(x, int(gl_WorkGroupID.y));
+  } else {
+    const int y = pc.first_row + int(gl_WorkGroupID.y) * pc.row_step;
+    for (int col = first; col < pc.columns; col += stride) refine_pixel(col * pc.step, y);
+  }
 }

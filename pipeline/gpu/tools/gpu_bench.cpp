@@ -6,9 +6,12 @@
 // (tools/synthetic_pair.hpp) or read from 8-bit binary PGM files (--left/--right, one size then).
 // Needs only the Vulkan loader at run time.
 //   rutd-gpu-bench [--device NAME|INDEX] [--runs N] [--warmup N] [--sizes 640x480,1280x1024,640x48]
-//                  [--paths 2,4,8] [--disparities 64,128] [--left L.pgm --right R.pgm] [--no-dic]
-// With DIC (the default; 11x11 window, every pixel of every second row, as rutd's default DicConfig) the
-// B-spline prefilter runs with the census and counts there.
+//                  [--paths 2,4,8] [--disparities 64,128] [--left L.pgm --right R.pgm]
+//                  [--dic columns|pixels|none]
+// DIC (rutd's default DicConfig, 11 px wide windows, over every row): `columns` (the default, what the
+// daemon runs) one window per column and block of 16 rows, or per column of the whole image when it has
+// at most 64 rows (a strip), as the measurer configures it; `pixels` an 11x11 window around every pixel
+// of every second row. The B-spline prefilter runs with the census and counts there.
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
@@ -69,7 +72,7 @@ double ms_since(Clock::time_point t0) { return std::chrono::duration<double, std
 int main(int argc, char** argv) {
   std::string device, sizes = "640x480,1280x1024,640x48", paths = "2,4,8", disparities = "64,128", left_pgm, right_pgm;
   int runs = 200, warmup = 20;
-  bool use_dic = true;
+  std::string dic_mode = "columns";
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     const bool more = i + 1 < argc;
@@ -81,11 +84,16 @@ int main(int argc, char** argv) {
     else if (a == "--disparities" && more) disparities = argv[++i];
     else if (a == "--left" && more) left_pgm = argv[++i];
     else if (a == "--right" && more) right_pgm = argv[++i];
-    else if (a == "--no-dic") use_dic = false;
+    else if (a == "--dic" && more) dic_mode = argv[++i];
+    else if (a == "--no-dic") dic_mode = "none";
     else {
       std::fprintf(stderr, "usage: see the comment at the top of gpu_bench.cpp\n");
       return 2;
     }
+  }
+  if (dic_mode != "columns" && dic_mode != "pixels" && dic_mode != "none") {
+    std::fprintf(stderr, "--dic: columns, pixels or none\n");
+    return 2;
   }
   tools::Pair file_pair;
   if (!left_pgm.empty() || !right_pgm.empty()) {
@@ -111,8 +119,13 @@ int main(int argc, char** argv) {
         return 1;
       }
       if (!header) {
-        std::printf("device %d: %s (%s, subgroup %u); median of %d runs after %d warm-up, ms\n", sgm->device().index,
-                    sgm->device().name.c_str(), sgm->device().type.c_str(), sgm->device().subgroup_size, runs, warmup);
+        std::printf("device %d: %s (%s, subgroup %u); DIC %s; median of %d runs after %d warm-up, ms\n",
+                    sgm->device().index, sgm->device().name.c_str(), sgm->device().type.c_str(),
+                    sgm->device().subgroup_size,
+                    dic_mode == "columns"  ? "column windows"
+                    : dic_mode == "pixels" ? "per pixel, every second row"
+                                           : "off",
+                    runs, warmup);
         std::printf("%-10s %5s %5s | %7s %7s %9s %7s %7s %7s %8s | %9s %8s | %9s\n", "size", "disp", "paths", "upload",
                     "census", "aggregate", "wta", "lr+med", "dic", "download", "end2end", "Hz", "2-flight");
         header = true;
@@ -128,7 +141,11 @@ int main(int argc, char** argv) {
         std::vector<double> up, census, agg, wta, lrm, dict, down, total;
         DicParams dic;
         dic.row_step = 2;
-        const DicParams* dic_ptr = use_dic ? &dic : nullptr;
+        if (dic_mode == "columns") {
+          dic.column_windows = true;
+          dic.column_block_rows = h <= 64 ? 0 : 16;  // MeasurerConfig::kMaxColumnWindowRows, kColumnBlockRows
+        }
+        const DicParams* dic_ptr = dic_mode != "none" ? &dic : nullptr;
         for (int i = 0; i < warmup + runs; ++i) {
           GpuStageTimes t;
           const auto t0 = Clock::now();

@@ -5,12 +5,15 @@
 // coefficients within 1e-3 relative, refined disparities within 1/128 px (the requirement is 1/64 px; the
 // device adds each window's sums as a subgroup tree, the reference row by row, so a pixel may stop one
 // Gauss-Newton iteration apart: seen up to 0.0023 px on 157,616 pixels of a 631x479 pair), and
-// at most 0.5% of the pixels refined on one side only (a rejection threshold met within rounding). Exit status: 0 all
-// equal, 1 a difference, 2 usage, 77 no usable Vulkan device (CTest's skip code). Needs only the Vulkan loader at run
-// time.
+// at most 0.5% of the windows refined on one side only (a rejection threshold met within rounding). The DIC
+// runs in both modes: per pixel, and column windows (the daemon's: one window per column and row block,
+// random block heights, one block of the whole strip on strips up to 64 rows) from the same matcher
+// output. Exit status: 0 all equal, 1 a difference, 2 usage, 77 no usable Vulkan device (CTest's skip
+// code). Needs only the Vulkan loader at run time.
 //   rutd-gpu-check [--device NAME|INDEX] [--seed N] [--cases N] [--aggregate-threads N]
 // --aggregate-threads: the aggregation's workgroup size (VulkanSgm); several subgroups' worth checks its
 // shared-memory path.
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -66,6 +69,41 @@ struct Case {
   int width, height, min_disparity, num_disparities;
 };
 
+// A DIC output against its reference.
+struct DicComparison {
+  long refined = 0;   // windows the reference refined
+  long one_side = 0;  // windows refined on one side only
+  long windows = 0;   // windows tried
+  double worst = 0;   // px, largest difference where both refined
+  bool within(double limit) const { return worst <= limit && one_side <= 0.005 * static_cast<double>(windows); }
+};
+
+// Per pixel: every pixel is a window. Column windows: a block's rows are refined or NaN together, so a
+// window counts once (at its first row); every pixel counts towards the difference.
+DicComparison compare_dic(const std::vector<float>& ref, const std::vector<float>& dev, int width, const DicParams& p) {
+  DicComparison c;
+  const int height = static_cast<int>(ref.size()) / width;
+  std::vector<char> counts(ref.size(), p.column_windows ? 0 : 1);
+  if (p.column_windows) {
+    const ColumnBlocks blocks(p, height);
+    for (int b = 0; b < blocks.count; ++b)
+      std::fill_n(counts.begin() + static_cast<long>(blocks.begin(b)) * width, width, 1);
+  }
+  for (std::size_t i = 0; i < ref.size() && i < dev.size(); ++i) {
+    const bool a = !std::isnan(ref[i]), b = !std::isnan(dev[i]);
+    if (counts[i]) {
+      ++c.windows;
+      c.refined += a;
+      c.one_side += a != b;
+    } else if (a != b) {
+      c.one_side += 1;  // a block's later row where its first agreed: each such row counts
+    }
+    if (a && b) c.worst = std::max(c.worst, std::abs(static_cast<double>(ref[i]) - dev[i]));
+  }
+  if (ref.size() != dev.size()) c.worst = 1e30;
+  return c;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -116,6 +154,15 @@ int main(int argc, char** argv) {
     dic.row_end = c.height - uni(0, c.height / 4);
     dic.first_order = k % 5 != 4;
     dic.max_sigma_px = k % 2 == 0 ? 0.0f : 0.2f;
+    // Column windows as the measurer sets them: one block on strips of up to 64 rows (every other such
+    // case here; the whole 641x48 strip in case 1), else blocks of random height.
+    DicParams columns = dic;
+    columns.column_windows = true;
+    columns.column_block_rows = c.height <= 64 && k % 2 == 1 ? 0 : uni(2, 24);
+    if (k == 1) {
+      columns.row_begin = 0;
+      columns.row_end = c.height;
+    }
     try {
       sgm = std::make_unique<VulkanSgm>(device, c.width, c.height, c.num_disparities, 0, aggregate_threads);
     } catch (const GpuError& e) {
@@ -131,8 +178,10 @@ int main(int argc, char** argv) {
           "device %d: %s (%s, subgroup %u%s)\n", sgm->device().index, sgm->device().name.c_str(),
           sgm->device().type.c_str(), sgm->device().subgroup_size,
           aggregate_threads > 0 ? (", aggregation workgroup " + std::to_string(aggregate_threads)).c_str() : "");
-    const auto pair =
-        tools::synthetic_pair(c.width, c.height, c.min_disparity, c.num_disparities, seed + static_cast<unsigned>(k));
+    // Gentle waves down two cases in three, so that column windows spanning many rows refine; the rest
+    // keep waves that reject many of them.
+    const auto pair = tools::synthetic_pair(c.width, c.height, c.min_disparity, c.num_disparities,
+                                            seed + static_cast<unsigned>(k), k % 3 != 2 ? 1.0f : -1.0f);
     const ImageView l{pair.left.data(), c.width, c.height, static_cast<std::size_t>(c.width)};
     const ImageView r{pair.right.data(), c.width, c.height, static_cast<std::size_t>(c.width)};
     SgmStages ref, dev;
@@ -140,7 +189,11 @@ int main(int argc, char** argv) {
     bspline_reference(l, ref.spline_left);
     bspline_reference(r, ref.spline_right);
     dic_reference(l, ref.spline_left, ref.spline_right, ref.disparity, dic, ref.refined);
-    const GpuStatus s = sgm->compute_stages(l, r, band, params, &dic, dev);
+    std::vector<float> ref_columns, dev_columns(ref.disparity.size());
+    dic_reference(l, ref.spline_left, ref.spline_right, ref.disparity, columns, ref_columns);
+    GpuStatus s = sgm->compute_stages(l, r, band, params, &dic, dev);
+    if (s == GpuStatus::Ok)
+      s = sgm->compute(l, r, band, params, &columns, dev_columns.data(), static_cast<std::size_t>(c.width));
     std::printf("case %2zu: %4dx%-4d band %3d+%-3d paths %d P1 %2d P2 %3d uniq %2d lr %2d median %d: ", k, c.width,
                 c.height, c.min_disparity, c.num_disparities, params.paths, params.p1, params.p2, params.uniqueness,
                 params.lr_max_diff, params.median ? 1 : 0);
@@ -166,22 +219,18 @@ int main(int argc, char** argv) {
     }
     const double spline =
         std::max(max_relative(dev.spline_left, ref.spline_left), max_relative(dev.spline_right, ref.spline_right));
-    long valid = 0, refined = 0, one_side = 0;
-    double worst = 0;
-    for (std::size_t i = 0; i < ref.refined.size(); ++i) {
-      valid += !std::isnan(ref.disparity[i]);
-      const bool a = !std::isnan(ref.refined[i]), b = !std::isnan(dev.refined[i]);
-      refined += a;
-      one_side += a != b;
-      if (a && b) worst = std::max(worst, std::abs(static_cast<double>(ref.refined[i]) - dev.refined[i]));
-    }
-    const bool dic_ok =
-        spline <= 1e-3 && worst <= 1.0 / 128 && one_side <= 0.005 * static_cast<double>(ref.refined.size());
+    long valid = 0;
+    for (const float d : ref.disparity) valid += !std::isnan(d);
+    const DicComparison pixels = compare_dic(ref.refined, dev.refined, c.width, dic);
+    const DicComparison cols = compare_dic(ref_columns, dev_columns, c.width, columns);
+    const bool dic_ok = spline <= 1e-3 && pixels.within(1.0 / 128) && cols.within(1.0 / 128);
     if (!dic_ok) {
       if (ok) std::printf("FAIL\n");
       ok = false;
-      std::printf("    DIC: spline %.2g relative, refined %ld, on one side only %ld, largest difference %.4f px\n",
-                  spline, refined, one_side, worst);
+      std::printf("    DIC: spline %.2g relative\n", spline);
+      for (const auto& [name, cmp] : {std::pair{"per pixel", pixels}, std::pair{"column windows", cols}})
+        std::printf("    DIC %s: refined %ld of %ld windows, on one side only %ld, largest difference %.4f px\n", name,
+                    cmp.refined, cmp.windows, cmp.one_side, cmp.worst);
       // Where the left spline differs most, and how many coefficients are off: a diagnosis for devices.
       std::size_t at = 0;
       const double left = max_relative(dev.spline_left, ref.spline_left, &at);
@@ -193,8 +242,14 @@ int main(int argc, char** argv) {
       }
     }
     if (ok)
-      std::printf("identical; DIC within %.5f px, %ld of %ld on one side only (%.0f%% valid)\n", worst, one_side,
-                  refined, 100.0 * static_cast<double>(valid) / static_cast<double>(ref.disparity.size()));
+      std::printf(
+          "identical (%.0f%% valid); DIC per pixel within %.5f px, %ld of %ld on one side only; column windows "
+          "(%s) within %.5f px, %ld of %ld on one side only\n",
+          100.0 * static_cast<double>(valid) / static_cast<double>(ref.disparity.size()), pixels.worst, pixels.one_side,
+          pixels.refined,
+          columns.column_block_rows > 0 ? ("blocks of " + std::to_string(columns.column_block_rows) + " rows").c_str()
+                                        : "one block",
+          cols.worst, cols.one_side, cols.refined);
     failures += !ok;
   }
   std::printf("%s: %d of %zu cases differ\n", failures ? "FAIL" : "PASS", failures, list.size());

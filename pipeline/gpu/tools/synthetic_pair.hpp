@@ -1,7 +1,8 @@
 #pragma once
 // A textured stereo pair for the standalone tools: smoothed random texture on the left, the right view
 // the left shifted by a disparity that varies smoothly across the image (a slanted, wavy surface) inside
-// the band, plus noise. Deterministic for a seed.
+// the band, plus noise. Deterministic for a seed. row_wave_px: the amplitude of the waves down the image,
+// px; < 0: a tenth of the band (strong enough that windows spanning tens of rows cannot follow them).
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
@@ -15,7 +16,10 @@ struct Pair {
   std::vector<std::uint8_t> left, right;
 };
 
-inline Pair synthetic_pair(int width, int height, int min_disparity, int num_disparities, std::uint32_t seed) {
+inline Pair synthetic_pair(int width, int height, int min_disparity, int num_disparities, std::uint32_t seed,
+                           float row_wave_px = -1.0f) {
+  // The wave's amplitude as a share of the band (0.1 exactly by default, the images of earlier builds).
+  const float wave = row_wave_px >= 0.0f ? row_wave_px / static_cast<float>(num_disparities) : 0.1f;
   std::mt19937 rng(seed);
   std::uniform_real_distribution<float> u(0.f, 1.f);
   const int margin = min_disparity + num_disparities + 2;
@@ -54,7 +58,7 @@ inline Pair synthetic_pair(int width, int height, int min_disparity, int num_dis
       const float d =
           static_cast<float>(min_disparity) +
           static_cast<float>(num_disparities) * (0.3f + 0.2f * static_cast<float>(x) / static_cast<float>(width) +
-                                                 0.1f * std::sin(static_cast<float>(y) * 0.05f));
+                                                 wave * std::sin(static_cast<float>(y) * 0.05f));
       const std::size_t i = static_cast<std::size_t>(y) * static_cast<std::size_t>(width) + static_cast<std::size_t>(x);
       p.left[i] = grey(sample(static_cast<float>(x + margin), y));
       p.right[i] = grey(sample(static_cast<float>(x + margin) + d, y));
