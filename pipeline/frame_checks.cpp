@@ -145,9 +145,11 @@ VerticalOffsets vertical_disparity(const cv::Mat& left, const cv::Mat& right, co
   return out;
 }
 
-// Longest run (px) of blocks inside columns [u0, u1] flat in both cameras; `shift` maps a left block to
-// the right block seeing the same ground.
-double flat_run_px(const FrameCheckScratch& s, int block, double u0, double u1, int shift, double threshold) {
+// Longest run (px) of blocks inside columns [u0, u1] where the surface was not seen: flat in both
+// cameras (texture below `threshold`) and unmatched (under half of the sampled pixels have a disparity).
+// `shift` maps a left block to the right block seeing the same ground. A dark but textured surface (a
+// rut wall in shadow) may be as flat by this threshold, but DIC matches it: it is seen, and not counted.
+double unseen_flat_run_px(const FrameCheckScratch& s, int block, double u0, double u1, int shift, double threshold) {
   const auto& tl = s.texture[0];
   const auto& tr = s.texture[1];
   const int blocks = static_cast<int>(tl.size());
@@ -155,9 +157,10 @@ double flat_run_px(const FrameCheckScratch& s, int block, double u0, double u1, 
   for (int b = 0; b < blocks; ++b) {
     const double x0 = b * block, x1 = x0 + block;
     const int rb = b - shift;
+    const auto k = static_cast<std::size_t>(b);
     const bool inside = x0 >= u0 && x1 <= u1 && rb >= 0 && rb < blocks;
     const bool flat =
-        inside && tl[static_cast<std::size_t>(b)] < threshold && tr[static_cast<std::size_t>(rb)] < threshold;
+        inside && tl[k] < threshold && tr[static_cast<std::size_t>(rb)] < threshold && 2 * s.matched[k] < s.sampled[k];
     run = flat ? run + 1 : 0;
     longest = std::max(longest, run);
   }
@@ -189,6 +192,7 @@ void validate(const ConditionConfig& c) {
           "must be within (0, 1)");
   require(c.vegetation_unmatched_share > 0 && c.vegetation_unmatched_share <= 1, "vegetation_unmatched_share",
           "must be within (0, 1]");
+  require(c.vegetation_min_blocks >= 1, "vegetation_min_blocks", "must be >= 1");
 }
 
 void check_frame(const cv::Mat& left, const cv::Mat& right, const cv::Mat& disparity, int row_begin, int row_end,
@@ -258,7 +262,16 @@ void check_frame(const cv::Mat& left, const cv::Mat& right, const cv::Mat& dispa
     if (m.obstructed_left >= c.obstruction_min_fraction) m.conditions |= kConditionLeftObstructed;
     if (m.obstructed_right >= c.obstruction_min_fraction) m.conditions |= kConditionRightObstructed;
 
-    // Vegetation: textured in both cameras, yet unmatched.
+    // The rut opening's columns in the left strip, where extract_rut found one (else an empty range).
+    const bool has_opening = rut.has_rut && rut.has_line;
+    const cv::Matx44d& q = geometry.Q();
+    const double f = geometry.focal_px(), cx = -q(0, 3);
+    const auto column = [&](double x) { return cx + f * x / (rut.line_m * x + rut.line_c); };
+    const double u0 = has_opening ? column(rut.left_x_mm) : 0.0, u1 = has_opening ? column(rut.right_x_mm) : -1.0;
+
+    // Vegetation: textured in both cameras, yet unmatched; judged outside the rut opening, where the
+    // tyre has not flattened it (inside, DIC also loses steep rut walls, foreshortened differently in
+    // the two views, which would pass for blades on a ground with few textured blocks, as snow).
     s.matched.assign(static_cast<std::size_t>(blocks), 0);
     s.sampled.assign(static_cast<std::size_t>(blocks), 0);
     for (int y = row_begin; y < row_end; y += 4) {
@@ -271,14 +284,15 @@ void check_frame(const cv::Mat& left, const cv::Mat& right, const cv::Mat& dispa
     int textured = 0, unmatched = 0;
     for (int b = 0; b < blocks; ++b) {
       const int rb = b - shift;
-      if (rb < 0 || rb >= blocks) continue;
+      if (rb < 0 || rb >= blocks || ((b + 1) * c.block_px > u0 && b * c.block_px < u1)) continue;
       if (s.texture[0][static_cast<std::size_t>(b)] < c.min_texture ||
           s.texture[1][static_cast<std::size_t>(rb)] < c.min_texture)
         continue;
       ++textured;
       unmatched += 2 * s.matched[static_cast<std::size_t>(b)] < s.sampled[static_cast<std::size_t>(b)];
     }
-    if (textured > 0 && unmatched > c.vegetation_unmatched_share * textured) m.conditions |= kConditionVegetation;
+    if (unmatched >= c.vegetation_min_blocks && unmatched > c.vegetation_unmatched_share * textured)
+      m.conditions |= kConditionVegetation;
 
     // Calibration.
     // Drift when at least a third of the correlating blocks (at least one) are beyond the limit: one
@@ -288,11 +302,7 @@ void check_frame(const cv::Mat& left, const cv::Mat& right, const cv::Mat& dispa
     if (v.found > 0 && 3 * v.beyond >= v.found) m.conditions |= kConditionCalibrationDrift;
 
     // Water / flat patch inside the rut opening, against the texture of the ground outside it.
-    if (rut.has_rut && rut.has_line) {
-      const cv::Matx44d& q = geometry.Q();
-      const double f = geometry.focal_px(), cx = -q(0, 3);
-      const auto column = [&](double x) { return cx + f * x / (rut.line_m * x + rut.line_c); };
-      const double u0 = column(rut.left_x_mm), u1 = column(rut.right_x_mm);
+    if (has_opening) {
       s.values.clear();
       for (int b = 0; b < blocks; ++b) {
         const double x0 = b * c.block_px, x1 = x0 + c.block_px;
@@ -301,7 +311,7 @@ void check_frame(const cv::Mat& left, const cv::Mat& right, const cv::Mat& dispa
       const double ground = median_of(s.values);
       const double z = rut.line_m * 0.5 * (rut.left_x_mm + rut.right_x_mm) + rut.line_c;
       if (std::isfinite(ground) && z > 0) {
-        const double run_mm = flat_run_px(s, c.block_px, u0, u1, shift, c.flat_ratio * ground) * z / f;
+        const double run_mm = unseen_flat_run_px(s, c.block_px, u0, u1, shift, c.flat_ratio * ground) * z / f;
         if (run_mm >= c.flat_min_width_mm) m.conditions |= kConditionWater;
       }
     }

@@ -286,8 +286,14 @@ double line_error_at(const std::vector<double>& xs, const std::vector<double>& z
 }
 
 // The coverage term of the uncertainty (see extract.hpp): for every gap of NaN bins inside the opening,
-// how much deeper than `depth` the profile could reach by continuing down with the smoothed slopes at
-// the gap's edges for half its width; the largest such excess, mm.
+// how much deeper than `depth` the profile could reach unseen. Walking into the gap from each edge, the
+// profile may go on down at that edge's smoothed slope. When both edges descend into the gap, the
+// deepest profile they allow is the V of their tangents, which meet inside it at depth
+// (r_l d_r + r_r d_l + r_l r_r w) / (r_l + r_r) (edge depths d, descent rates r > 0, gap width w). When
+// one edge does not descend (a hook of the shore, a level edge), nothing but the gap's width bounds the
+// other's descent: it is taken down for half the width, as for a symmetric V. A gap between rising or
+// level edges adds nothing beyond its deeper edge; a gap between walls still falling (a bottom not seen:
+// water, a patch DIC refused) adds the depth the walls would reach. The largest such excess, mm.
 double unseen_excess(const std::vector<double>& h_fit, const std::vector<double>& slope, double m, const Grid& g,
                      const Opening& o, double depth, double norm) {
   double worst = 0.0;
@@ -297,11 +303,15 @@ double unseen_excess(const std::vector<double>& h_fit, const std::vector<double>
     if (last >= 0 && i - last > 1) {
       const double width = (i - last) * g.dx;
       // Descent rates below the line (mm per mm) walking into the gap from each side.
-      const double left_rate = std::isnan(slope[last]) ? 0.0 : std::max(0.0, (slope[last] - m) / norm);
-      const double right_rate = std::isnan(slope[i]) ? 0.0 : std::max(0.0, -(slope[i] - m) / norm);
-      const double reach = std::min(-h_fit[last] + 0.5 * width * left_rate, -h_fit[i] + 0.5 * width * right_rate);
-      const double edges = std::max(-h_fit[last], -h_fit[i]);
-      worst = std::max(worst, std::max(reach, edges) - depth);
+      const double rl = std::isnan(slope[last]) ? 0.0 : std::max(0.0, (slope[last] - m) / norm);
+      const double rr = std::isnan(slope[i]) ? 0.0 : std::max(0.0, -(slope[i] - m) / norm);
+      const double dl = -h_fit[last], dr = -h_fit[i];
+      double reach = std::max(dl + 0.5 * width * rl, dr + 0.5 * width * rr);
+      if (rl > 0.0 && rr > 0.0) {
+        const double x = (dr - dl + rr * width) / (rl + rr);  // where the tangents meet, from the left edge
+        if (x >= 0.0 && x <= width) reach = dl + rl * x;
+      }
+      worst = std::max(worst, reach - depth);
     }
     last = i;
   }

@@ -173,6 +173,26 @@ TEST(ExtractRut, GapsAreBridged) {
   EXPECT_GT(m.valid_fraction, 0.8);
 }
 
+// Standing water 12 mm deep in a 45 mm rut: the pool's surface has no texture, so nothing below its
+// level is measured (the bins there are NaN). The depth (the walls' fits extrapolated into the gap) must
+// not be Ok, and its uncertainty must cover its error (the coverage term is a uniform distribution over
+// the extra depth: its half-width is u * sqrt(3)).
+TEST(ExtractRut, BottomUnderWaterIsUncertain) {
+  RutShape s;
+  s.depth = 45.0;
+  const View v;
+  CrossSection c = make_section(s, v, kX0, kBins, 1.0, 0.2, 5);
+  const double water_surface = -(s.depth - 12.0);
+  for (int i = 0; i < kBins; ++i) {
+    if (test::terrain_height(s, kX0 + i) < water_surface) c.z_mm[i] = kNaN;
+  }
+  const RutMeasurement m = measure(c);
+  EXPECT_EQ(m.status, RutStatus::Uncertain) << to_string(m.status);
+  EXPECT_NE(m.conditions & kConditionUncertain, 0u);
+  EXPECT_GE(m.depth_uncertainty_mm * std::sqrt(3.0), std::abs(s.depth - m.depth_mm));
+  EXPECT_LT(m.quality, 0.5);
+}
+
 TEST(ExtractRut, FlatGroundIsNoRut) {
   RutShape s;
   s.depth = 0.0;

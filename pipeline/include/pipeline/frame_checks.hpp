@@ -44,10 +44,15 @@ struct ConditionConfig {
   double saturated_level = 0.98;
   double overexposed_fraction = 0.15;
   // Standing water or a flat textureless patch in the rut: a run of blocks inside the rut opening where
-  // both cameras see less than flat_ratio of the texture of the ground outside the rut, at least
-  // flat_min_width_mm wide on the ground. Still water reflects a smooth sky and has no texture of its
-  // own; soil, snow and mud all do at the scale of a block.
-  double flat_ratio = 0.35;
+  // the bottom is not seen, at least flat_min_width_mm wide on the ground: both cameras see less than
+  // flat_ratio of the texture of the ground outside the rut, and DIC matched under half of the block.
+  // Still water reflects a smooth sky and has no texture of its own, so nothing on it matches (its
+  // texture is the cameras' read noise); soil, snow and mud match wherever both cameras see them, even
+  // in shadow, where their texture drops with the light (a shadowed sand wall: 0.3 of the ground's).
+  // The texture test keeps a rough unmatched surface (vegetation, which keeps most of the ground's
+  // texture) out; it must pass snow's water, whose ground has little more texture than noise (still
+  // water in snow: 0.34 of the ground's).
+  double flat_ratio = 0.5;
   double flat_min_width_mm = 8.0;
   // Calibration: the vertical offset of the right strip's features against the left's, measured by
   // normalised cross-correlation of vertical_blocks blocks spread over the middle 60 % of the strip,
@@ -65,8 +70,12 @@ struct ConditionConfig {
   // match as one surface (each camera sees other blades in front of other soil), so DIC refuses them.
   // Soil, snow and mud match wherever both cameras see texture. Flagged when more than
   // vegetation_unmatched_share of the blocks with texture in both cameras have under half of their
-  // pixels matched. (A cross-section rough at scales soil is not also flags it: RutConfig.)
+  // pixels matched, and at least vegetation_min_blocks do: one or two unmatched blocks are a pile's
+  // steep flank or a window that did not converge, and on a ground with few textured blocks (snow) they
+  // alone would make the share. Only blocks outside the rut opening count (the tyre flattened the rut).
+  // (A cross-section rough at scales soil is not also flags it: RutConfig.)
   double vegetation_unmatched_share = 0.2;
+  int vegetation_min_blocks = 3;
 };
 
 // Throws std::invalid_argument naming the field when `config` is unusable.

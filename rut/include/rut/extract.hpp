@@ -45,9 +45,12 @@ struct RutConfig {
   // (0.25 = interquartile mean: robust to stereo outliers, ~85 % of the mean's efficiency).
   double trim_fraction = 0.25;
   // A depth whose estimated standard uncertainty (RutMeasurement::depth_uncertainty_mm, see
-  // extract_rut) exceeds this is not Ok but Uncertain. 0.35 mm: the end-to-end tolerance of 1 mm is then
-  // about three standard uncertainties.
-  double max_depth_uncertainty_mm = 0.35;
+  // extract_rut) exceeds this is not Ok but Uncertain. 0.6 mm: the 1 mm tolerance is then 1.65
+  // standard uncertainties, which a normal error exceeds on one side 5 % of the time. The estimate is
+  // honest on clean rendered snow, whose correlated stereo noise is the largest (u 0.32-0.50 mm,
+  // errors up to 0.42 mm), so a tighter limit refuses depths that are right; a bottom not seen
+  // (coverage term) gives estimates of tens of millimetres.
+  double max_depth_uncertainty_mm = 0.6;
   // Soil seen by stereo and averaged along the strip is smooth at the scale of a bin: its per-bin
   // scatter about the local parabola is the stereo noise, a few tenths of a millimetre. Grass blades
   // standing above the soil put single bins millimetres above or below their neighbours. A scatter
@@ -117,9 +120,9 @@ void reduce_to_cross_section(const cv::Mat& xyz, const RutConfig& params, CrossS
 //   - the ground line's standard error at the deepest point (residual scatter of the ground bins,
 //     their number and lever arm);
 //   - the coverage across the rut: over a gap without valid bins inside the opening the bottom is not
-//     seen; the profile could continue down with the slopes at the gap's edges for half its width, and
-//     that extra depth (taken as uniformly distributed, / sqrt(3)) counts where it would exceed the
-//     measured depth;
+//     seen; the profile could continue down with the slopes at the gap's edges until the two meet (a
+//     V; half the gap's width where only one edge descends), and that extra depth (taken as uniformly
+//     distributed, / sqrt(3)) counts where it would exceed the measured depth;
 // and quality = 1 - u / (2 max_depth_uncertainty_mm), clamped to 0..1 (0 unless the status is Ok,
 // Uncertain or Vegetation). A rough profile is Vegetation and a depth with u above the limit Uncertain
 // (both with the depth computed but not Ok).
