@@ -247,6 +247,7 @@ void read_conditions(Section s, ConditionConfig& c) {
       .get<double>("overexposed_fraction", c.overexposed_fraction, in_range(0.001, 1.0))
       .get<double>("flat_ratio", c.flat_ratio, in_range(0.01, 0.99))
       .get<double>("flat_min_width_mm", c.flat_min_width_mm, in_range(0.1, 1000.0))
+      .get<double>("flat_min_unseen_mm", c.flat_min_unseen_mm, in_range(0.0, 1000.0))
       .get<double>("max_vertical_disparity_px", c.max_vertical_disparity_px, in_range(0.01, 32.0))
       .get<double>("vegetation_unmatched_share", c.vegetation_unmatched_share, in_range(0.01, 1.0))
       .get<int>("vegetation_min_blocks", c.vegetation_min_blocks, in_range(1, 1000));

@@ -184,6 +184,7 @@ void validate(const ConditionConfig& c) {
   require(c.overexposed_fraction > 0 && c.overexposed_fraction <= 1, "overexposed_fraction", "must be within (0, 1]");
   require(c.flat_ratio > 0 && c.flat_ratio < 1, "flat_ratio", "must be within (0, 1)");
   require(c.flat_min_width_mm > 0, "flat_min_width_mm", "must be > 0");
+  require(c.flat_min_unseen_mm >= 0, "flat_min_unseen_mm", "must be >= 0");
   require(c.max_vertical_disparity_px > 0, "max_vertical_disparity_px", "must be > 0");
   require(c.vertical_search_px >= 1 && c.vertical_search_px <= 32, "vertical_search_px", "must be within [1, 32]");
   require(c.vertical_blocks >= 1 && c.vertical_blocks <= 16, "vertical_blocks", "must be within [1, 16]");
@@ -312,7 +313,10 @@ void check_frame(const cv::Mat& left, const cv::Mat& right, const cv::Mat& dispa
       const double z = rut.line_m * 0.5 * (rut.left_x_mm + rut.right_x_mm) + rut.line_c;
       if (std::isfinite(ground) && z > 0) {
         const double run_mm = unseen_flat_run_px(s, c.block_px, u0, u1, shift, c.flat_ratio * ground) * z / f;
-        if (run_mm >= c.flat_min_width_mm) m.conditions |= kConditionWater;
+        // The patch hides the bottom only where the profile's walls still descend into it; flanked by
+        // bottom seen level on both sides (a smooth patch of mud, tread marks), the bottom is measured.
+        if (run_mm >= c.flat_min_width_mm && rut.unseen_depth_mm > c.flat_min_unseen_mm)
+          m.conditions |= kConditionWater;
       }
     }
   } catch (...) {

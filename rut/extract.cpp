@@ -293,18 +293,29 @@ double line_error_at(const std::vector<double>& xs, const std::vector<double>& z
 // one edge does not descend (a hook of the shore, a level edge), nothing but the gap's width bounds the
 // other's descent: it is taken down for half the width, as for a symmetric V. A gap between rising or
 // level edges adds nothing beyond its deeper edge; a gap between walls still falling (a bottom not seen:
-// water, a patch DIC refused) adds the depth the walls would reach. The largest such excess, mm.
+// water, a patch DIC refused) adds the depth the walls would reach. An edge's descent rate is the
+// steepest within `reach` bins of it: the last bins before a gap bend (a shore's edge matches at the
+// water's level, the fits there extrapolate), the wall above them does not. The largest excess, mm.
 double unseen_excess(const std::vector<double>& h_fit, const std::vector<double>& slope, double m, const Grid& g,
-                     const Opening& o, double depth, double norm) {
+                     const Opening& o, double depth, double norm, int reach_bins) {
+  // Steepest descent below the line (mm per mm) walking in direction dir over bins [from, from + dir
+  // reach_bins]; 0 if none descends.
+  const auto descent = [&](int from, int dir) {
+    double rate = 0.0;
+    for (int j = from, k = 0; k <= reach_bins && j >= 0 && j < int(slope.size()); j -= dir, ++k) {
+      if (!std::isnan(slope[j])) rate = std::max(rate, dir * (slope[j] - m) / norm);
+    }
+    return rate;
+  };
   double worst = 0.0;
   int last = -1;
   for (int i = o.left_bin; i <= o.right_bin; ++i) {
     if (std::isnan(h_fit[i])) continue;
     if (last >= 0 && i - last > 1) {
       const double width = (i - last) * g.dx;
-      // Descent rates below the line (mm per mm) walking into the gap from each side.
-      const double rl = std::isnan(slope[last]) ? 0.0 : std::max(0.0, (slope[last] - m) / norm);
-      const double rr = std::isnan(slope[i]) ? 0.0 : std::max(0.0, -(slope[i] - m) / norm);
+      // Descent rates below the line walking into the gap from each side.
+      const double rl = descent(last, +1);
+      const double rr = descent(i, -1);
       const double dl = -h_fit[last], dr = -h_fit[i];
       double reach = std::max(dl + 0.5 * width * rl, dr + 0.5 * width * rr);
       if (rl > 0.0 && rr > 0.0) {
@@ -438,7 +449,9 @@ RutMeasurement extract_rut(const CrossSection& section, const RutConfig& params,
   geo.right_pile_x_mm = right_top >= 0 ? p.grid.x(right_top) : none;
 
   const double u_line = line_error_at(ws.ground_x, ws.ground_z, line, p.grid.x(k), ws.c);
-  const double u_gap = unseen_excess(ws.h_fit, ws.slope, line.m, p.grid, o, out.depth_mm, norm) / std::sqrt(3.0);
+  const double unseen = unseen_excess(ws.h_fit, ws.slope, line.m, p.grid, o, out.depth_mm, norm, p.half);
+  geo.unseen_depth_mm = unseen;
+  const double u_gap = unseen / std::sqrt(3.0);
   out.depth_uncertainty_mm = std::sqrt(wander * wander + u_line * u_line + u_gap * u_gap);
   const double limit = params.max_depth_uncertainty_mm;
   const double quality = limit > 0.0 ? std::clamp(1.0 - out.depth_uncertainty_mm / (2.0 * limit), 0.0, 1.0) : 0.0;

@@ -52,8 +52,13 @@ struct ConditionConfig {
   // The texture test keeps a rough unmatched surface (vegetation, which keeps most of the ground's
   // texture) out; it must pass snow's water, whose ground has little more texture than noise (still
   // water in snow: 0.34 of the ground's).
+  // ... and only where the bottom is hidden: the profile's walls still descend into the unmatched part
+  // of the rut, so that it could be deeper than measured by more than flat_min_unseen_mm
+  // (RutGeometry::unseen_depth_mm; the 1 mm tolerance). A smooth patch of mud or tread marks in the
+  // bottom, flanked by bottom seen level on both sides, hides nothing.
   double flat_ratio = 0.5;
   double flat_min_width_mm = 8.0;
+  double flat_min_unseen_mm = 1.0;
   // Calibration: the vertical offset of the right strip's features against the left's, measured by
   // normalised cross-correlation of vertical_blocks blocks spread over the middle 60 % of the strip,
   // over +-vertical_search_px rows (sub-pixel by a parabola). Rectification leaves a few hundredths of

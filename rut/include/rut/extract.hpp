@@ -89,6 +89,9 @@ struct RutGeometry {
   // Scatter of the raw bins about the local fit (robust sigma, mm): the profile's roughness; valid
   // whenever the status is not TooFewPoints.
   double roughness_mm = 0.0;
+  // How much deeper than the depth the rut could be where it was not seen (gaps inside the opening
+  // whose walls still descend into them; see extract_rut's coverage term), mm; valid with has_rut.
+  double unseen_depth_mm = 0.0;
 };
 
 // Scratch vectors reused between frames by extract_rut; contents unspecified, except `geometry`.
@@ -120,8 +123,9 @@ void reduce_to_cross_section(const cv::Mat& xyz, const RutConfig& params, CrossS
 //   - the ground line's standard error at the deepest point (residual scatter of the ground bins,
 //     their number and lever arm);
 //   - the coverage across the rut: over a gap without valid bins inside the opening the bottom is not
-//     seen; the profile could continue down with the slopes at the gap's edges until the two meet (a
-//     V; half the gap's width where only one edge descends), and that extra depth (taken as uniformly
+//     seen; the profile could continue down with the slopes at the gap's edges (the steepest within
+//     half a fit window of each) until the two meet (a V; half the gap's width where only one edge
+//     descends; RutGeometry::unseen_depth_mm), and that extra depth (taken as uniformly
 //     distributed, / sqrt(3)) counts where it would exceed the measured depth;
 // and quality = 1 - u / (2 max_depth_uncertainty_mm), clamped to 0..1 (0 unless the status is Ok,
 // Uncertain or Vegetation). A rough profile is Vegetation and a depth with u above the limit Uncertain
