@@ -193,6 +193,30 @@ TEST(ExtractRut, BottomUnderWaterIsUncertain) {
   EXPECT_LT(m.quality, 0.5);
 }
 
+// A 40 mm hole in the middle of a flat bottom seen level on both sides (a smooth patch of mud DIC did
+// not match) hides nothing: the depth is Ok and right, and the unseen depth the water check reads is
+// under the 1 mm tolerance. The same hole with 12 mm of water's shores around it (above) hides the rest.
+TEST(ExtractRut, HoleInALevelBottomHidesNothing) {
+  RutShape s;
+  s.depth = 45.0;
+  const View v;
+  CrossSection c = make_section(s, v, kX0, kBins, 1.0, 0.2, 6);
+  for (int x = -20; x < 20; ++x) c.z_mm[x - int(kX0)] = kNaN;
+  RutWorkspace ws;
+  const RutMeasurement m = extract_rut(c, RutConfig{}, ws);
+  ASSERT_EQ(m.status, RutStatus::Ok) << to_string(m.status);
+  EXPECT_NEAR(m.depth_mm, s.depth, 0.3);
+  EXPECT_LT(ws.geometry.unseen_depth_mm, 1.0);
+
+  CrossSection pool = make_section(s, v, kX0, kBins, 1.0, 0.2, 6);
+  for (int i = 0; i < kBins; ++i) {
+    if (test::terrain_height(s, kX0 + i) < -(s.depth - 12.0)) pool.z_mm[i] = kNaN;
+  }
+  const RutMeasurement p = extract_rut(pool, RutConfig{}, ws);
+  EXPECT_GE(p.depth_mm + ws.geometry.unseen_depth_mm, s.depth);  // the hidden bottom within reach
+  EXPECT_GT(ws.geometry.unseen_depth_mm, 1.0);
+}
+
 TEST(ExtractRut, FlatGroundIsNoRut) {
   RutShape s;
   s.depth = 0.0;
