@@ -100,6 +100,13 @@ const Case kCases[] = {
      false},
     {"water_d35_l8_snow_b80", "--depth 35 --water-level 8 --texture snow --baseline 80 --height 300 --seed 36", 8,
      "Water", 0.9, false},
+    // ... and in mud off the rig's centre, a narrow snow rut, a dim sand scene (a shore's edge that bends
+    // up, a pool filling most of the bottom, less texture everywhere).
+    {"water_d50_l20_mud_off30", "--depth 50 --water-level 20 --texture mud --offset 30 --seed 109", 6, "Water", 0.9,
+     false},
+    {"water_d50_l10_snow_w140", "--depth 50 --water-level 10 --texture snow --width 140 --bottom-width 50 --seed 104",
+     6, "Water", 0.9, false},
+    {"water_d45_l15_sand_dim", "--depth 45 --water-level 15 --exposure 0.4 --seed 105", 6, "Water", 0.9, false},
     // Opaque splash on one lens, 10-50 % of the strip, and a fully covered lens.
     {"splash10_left_sand", "--depth 50 --splash 0.1 --splash-camera left --splash-centre 0.45 --seed 41", 6,
      "LeftLensObstructed", 0.0, true},
