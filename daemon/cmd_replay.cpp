@@ -122,6 +122,7 @@ int run_replay(const ReplayOptions& o) {
     if (candump) {
       const int n = encoder.encode_measurement(m, frames);
       for (int i = 0; i < n; ++i) candump->write(frames[static_cast<std::size_t>(i)], frame.t_ns);
+      candump->write(encoder.encode_conditions(m), frame.t_ns);
     }
   }
   progress.clear();

@@ -231,8 +231,26 @@ void read_rut(Section s, RutConfig& r) {
       .get<double>("max_width_mm", r.max_rut_width_mm, in_range(10.0, 5000.0))
       .get<double>("fit_window_mm", r.fit_window_mm, in_range(2.0, 500.0))
       .get<double>("bin_mm", r.bin_mm, in_range(0.1, 20.0))
-      .get<double>("min_depth_mm", r.min_rut_depth_mm, in_range(0.1, 500.0));
+      .get<double>("min_depth_mm", r.min_rut_depth_mm, in_range(0.1, 500.0))
+      .get<double>("max_depth_uncertainty_mm", r.max_depth_uncertainty_mm, in_range(0.01, 40.0))
+      .get<double>("vegetation_roughness_mm", r.vegetation_roughness_mm, in_range(0.05, 100.0));
   if (r.min_rut_width_mm >= r.max_rut_width_mm) s.fail("min_width_mm", "must be smaller than max_width_mm");
+  s.finish();
+}
+
+void read_conditions(Section s, ConditionConfig& c) {
+  s.get<bool>("enabled", c.enabled)
+      .get<double>("obstruction_ratio", c.obstruction_ratio, in_range(0.01, 0.99))
+      .get<double>("min_texture", c.min_texture, in_range(0.0, 255.0))
+      .get<double>("obstruction_min_fraction", c.obstruction_min_fraction, in_range(0.001, 1.0))
+      .get<double>("low_light_level", c.low_light_level, in_range(0.0, 0.99))
+      .get<double>("overexposed_fraction", c.overexposed_fraction, in_range(0.001, 1.0))
+      .get<double>("flat_ratio", c.flat_ratio, in_range(0.01, 0.99))
+      .get<double>("flat_min_width_mm", c.flat_min_width_mm, in_range(0.1, 1000.0))
+      .get<double>("flat_min_unseen_mm", c.flat_min_unseen_mm, in_range(0.0, 1000.0))
+      .get<double>("max_vertical_disparity_px", c.max_vertical_disparity_px, in_range(0.01, 32.0))
+      .get<double>("vegetation_unmatched_share", c.vegetation_unmatched_share, in_range(0.01, 1.0))
+      .get<int>("vegetation_min_blocks", c.vegetation_min_blocks, in_range(1, 1000));
   s.finish();
 }
 
@@ -353,6 +371,7 @@ RutdConfig parse_config(const std::string& yaml_text, const std::string& file) {
   }
   read_measurement(top.child("measurement"), c.measurement);
   read_rut(top.child("rut"), c.measurement.rut);
+  read_conditions(top.child("conditions"), c.measurement.conditions);
   read_can(top.child("can"), c.can);
 
   Section sinks = top.child("sinks");

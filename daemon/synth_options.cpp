@@ -117,6 +117,49 @@ void add_synth_options(CLI::App& cmd, SynthOptions& o) {
       ->capture_default_str()
       ->group(scene);
   cmd.add_option("--seed", p.seed, "Random seed (texture and noise)")->capture_default_str()->group(scene);
+  cmd.add_option("--exposure", p.exposure,
+                 "Exposure: radiance 1 maps to EXPOSURE x full scale (0.05: dark, 4: saturated)")
+      ->check(CLI::Range(0.001, 100.0))
+      ->capture_default_str()
+      ->group(scene);
+  const std::string cond = "Conditions (README: Conditions rutd flags)";
+  SceneConditions& c = p.conditions;
+  cmd.add_option("--water-level", c.water_level_mm,
+                 "Still water in the rut up to this height above its bottom, mm (0: dry); flat and textureless")
+      ->check(CLI::Range(0.0, 500.0))
+      ->capture_default_str()
+      ->group(cond);
+  cmd.add_option("--splash", c.splash_fraction,
+                 "Opaque mud blob on one lens covering this fraction of the image width (1: lens fully covered)")
+      ->check(CLI::Range(0.0, 1.0))
+      ->capture_default_str()
+      ->group(cond);
+  cmd.add_option("--splash-camera", o.splash_camera, "The lens with the blob: left or right")
+      ->check(CLI::IsMember({"left", "right"}))
+      ->capture_default_str()
+      ->group(cond);
+  cmd.add_option("--splash-centre", c.splash_centre, "Centre of the blob, fraction of the image width")
+      ->check(CLI::Range(0.0, 1.0))
+      ->capture_default_str()
+      ->group(cond);
+  cmd.add_option("--grass-height", c.grass_height_mm, "Grass blades up to this tall outside the rut, mm (0: none)")
+      ->check(CLI::Range(0.0, 200.0))
+      ->capture_default_str()
+      ->group(cond);
+  cmd.add_option("--grass-spacing", c.grass_spacing_mm, "One blade per square of this side, mm")
+      ->check(CLI::Range(1.0, 100.0))
+      ->capture_default_str()
+      ->group(cond);
+  cmd.add_option("--right-pitch-error", c.right_pitch_error_deg,
+                 "Right camera turned about its x axis against the written calibration, degrees")
+      ->check(CLI::Range(-10.0, 10.0))
+      ->capture_default_str()
+      ->group(cond);
+  cmd.add_option("--right-roll-error", c.right_roll_error_deg,
+                 "Right camera turned about its optical axis against the written calibration, degrees")
+      ->check(CLI::Range(-10.0, 10.0))
+      ->capture_default_str()
+      ->group(cond);
 }
 
 SynthConfig resolve_synth_options(const SynthOptions& o) {
@@ -124,6 +167,9 @@ SynthConfig resolve_synth_options(const SynthOptions& o) {
   p.rig.image_size = parse_size(o.size);
   p.texture = *parse_texture(o.texture);  // IsMember above guarantees a known name
   if (!o.depth_profile.empty()) p.depth_profile = parse_profile(o.depth_profile);
+  p.conditions.splash_camera = o.splash_camera == "right" ? Camera::Right : Camera::Left;
+  if (p.conditions.water_level_mm > 0 && p.depth_profile.empty() && p.conditions.water_level_mm >= p.rut.depth_mm)
+    throw CLI::ValidationError("--water-level", "must be below --depth");
   if (p.rut.bottom_width_mm >= p.rut.width_mm)
     throw CLI::ValidationError("--bottom-width", "must be smaller than --width");
   return p;

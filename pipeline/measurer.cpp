@@ -57,6 +57,7 @@ StripRoi default_strip(cv::Size rectified_size) {
 
 StereoMeasurer::StereoMeasurer(const StereoCalibration& calibration, const MeasurerConfig& config)
     : config_(config), image_size_(calibration.image_size), geometry_(calibration, matched_strip(calibration, config)) {
+  validate(config_.conditions);
   config_.strip = measured_strip(calibration, config);
   // measure()'s engine is made on its first call: the real-time pipeline and replay make their own, and a
   // GPU engine made here too would open the device twice. Bad parameters still throw here.
@@ -230,6 +231,8 @@ void StereoMeasurer::extract(FrameWork& w, RutWorkspace& workspace) const {
   t0 = Clock::now();
   reduce_to_cross_section(measured, config_.rut, w.section);
   w.measurement = extract_rut(w.section, config_.rut, workspace);
+  check_frame(w.left_strip, w.right_strip, w.disparity, first, first + config_.strip.rows, geometry_,
+              workspace.geometry, w.diag.band, config_.conditions, w.checks, w.measurement);
   w.diag.rut_ms = ms_since(t0);
 }
 

@@ -265,13 +265,68 @@ double pile_height(const RutWorkspace& ws, const Profile& p, const RutConfig& pa
   return height >= floor ? height : 0.0;
 }
 
-double quality_of(const CrossSection& s, const Opening& o, const Zone& ground, double sigma) {
-  int valid = 0, total = 0;
-  for (int i = o.left_bin; i <= o.right_bin; ++i, ++total) valid += std::isnan(s.z_mm[i]) ? 0 : 1;
-  const double coverage = total > 0 ? double(valid) / total : 0.0;
-  const double sides = ground.ground_left && ground.ground_right ? 1.0 : 0.7;
-  const double noise = 1.0 / (1.0 + sigma * sigma);  // sigma in mm: 0.5 mm -> 0.8, 2 mm -> 0.2
-  return std::clamp(coverage * sides * noise, 0.0, 1.0);
+// Standard error (mm) of the robust ground line at x: residual scatter of the ground bins (xs, zs: the
+// last fit's inputs) about the line, propagated as for least squares. 0 with fewer than 3 bins.
+double line_error_at(const std::vector<double>& xs, const std::vector<double>& zs, const detail::Line& line, double x,
+                     std::vector<double>& scratch) {
+  const std::size_t n = std::min(xs.size(), zs.size());
+  if (n < 3) return 0.0;
+  double mean = 0.0;
+  for (std::size_t i = 0; i < n; ++i) mean += xs[i];
+  mean /= double(n);
+  double sxx = 0.0;
+  scratch.clear();
+  for (std::size_t i = 0; i < n; ++i) {
+    sxx += (xs[i] - mean) * (xs[i] - mean);
+    scratch.push_back(std::abs(zs[i] - (line.m * xs[i] + line.c)));
+  }
+  const double sigma = 1.4826 * detail::median_inplace(scratch.data(), scratch.data() + scratch.size());
+  const double lever = sxx > 0.0 ? (x - mean) * (x - mean) / sxx : 0.0;
+  return sigma * std::sqrt(1.0 / double(n) + lever) / std::sqrt(1.0 + line.m * line.m);
+}
+
+// The coverage term of the uncertainty (see extract.hpp): for every gap of NaN bins inside the opening,
+// how much deeper than `depth` the profile could reach unseen. Walking into the gap from each edge, the
+// profile may go on down at that edge's smoothed slope. When both edges descend into the gap, the
+// deepest profile they allow is the V of their tangents, which meet inside it at depth
+// (r_l d_r + r_r d_l + r_l r_r w) / (r_l + r_r) (edge depths d, descent rates r > 0, gap width w). When
+// one edge does not descend (a hook of the shore, a level edge), nothing but the gap's width bounds the
+// other's descent: it is taken down for half the width, as for a symmetric V. A gap between rising or
+// level edges adds nothing beyond its deeper edge; a gap between walls still falling (a bottom not seen:
+// water, a patch DIC refused) adds the depth the walls would reach. An edge's descent rate is the
+// steepest within `reach` bins of it: the last bins before a gap bend (a shore's edge matches at the
+// water's level, the fits there extrapolate), the wall above them does not. The largest excess, mm.
+double unseen_excess(const std::vector<double>& h_fit, const std::vector<double>& slope, double m, const Grid& g,
+                     const Opening& o, double depth, double norm, int reach_bins) {
+  // Steepest descent below the line (mm per mm) walking in direction dir over bins [from, from + dir
+  // reach_bins]; 0 if none descends.
+  const auto descent = [&](int from, int dir) {
+    double rate = 0.0;
+    for (int j = from, k = 0; k <= reach_bins && j >= 0 && j < int(slope.size()); j -= dir, ++k) {
+      if (!std::isnan(slope[j])) rate = std::max(rate, dir * (slope[j] - m) / norm);
+    }
+    return rate;
+  };
+  double worst = 0.0;
+  int last = -1;
+  for (int i = o.left_bin; i <= o.right_bin; ++i) {
+    if (std::isnan(h_fit[i])) continue;
+    if (last >= 0 && i - last > 1) {
+      const double width = (i - last) * g.dx;
+      // Descent rates below the line walking into the gap from each side.
+      const double rl = descent(last, +1);
+      const double rr = descent(i, -1);
+      const double dl = -h_fit[last], dr = -h_fit[i];
+      double reach = std::max(dl + 0.5 * width * rl, dr + 0.5 * width * rr);
+      if (rl > 0.0 && rr > 0.0) {
+        const double x = (dr - dl + rr * width) / (rl + rr);  // where the tangents meet, from the left edge
+        if (x >= 0.0 && x <= width) reach = dl + rl * x;
+      }
+      worst = std::max(worst, reach - depth);
+    }
+    last = i;
+  }
+  return std::max(0.0, worst);
 }
 
 // Robust (1.4826 MAD) scatter of the smoothed heights of the ground bins (outside the disturbed zone)
@@ -307,6 +362,8 @@ RutMeasurement extract_rut(const CrossSection& section, const RutConfig& params,
   detail::sliding_quadratic(section.z_mm, section.dx_mm, p.half, p.half + 1, ws.smooth, ws.slope);
   const double leverage = detail::centre_leverage(p.half);
   p.sigma = detail::noise_sigma(section.z_mm, ws.smooth, leverage, ws.a);
+  ws.geometry.roughness_mm = p.sigma;
+  if (p.sigma > params.vegetation_roughness_mm) out.conditions |= kConditionVegetation;
   p.sigma_fit = p.sigma * std::sqrt(leverage);
   double t2 = 0.0;  // sum of squared offsets of a full window, mm^2
   for (int j = -p.half; j <= p.half; ++j) t2 += double(j) * j * section.dx_mm * section.dx_mm;
@@ -339,6 +396,11 @@ RutMeasurement extract_rut(const CrossSection& section, const RutConfig& params,
   ws.geometry.has_line = true;
   ws.geometry.line_m = line.m;
   ws.geometry.line_c = line.c;
+  // The ground bins of the last fit are still in ws.a, ws.b: their scatter about the line, at the
+  // deepest point, is the line's share of the depth uncertainty. Copied out before step 5 reuses the
+  // scratch (bounded by the section size: no allocation once grown).
+  ws.ground_x.assign(ws.a.begin(), ws.a.end());
+  ws.ground_z.assign(ws.b.begin(), ws.b.end());
 
   // Step 5.
   heights(ws.smooth, p.grid, line, ws.h_fit);
@@ -386,14 +448,30 @@ RutMeasurement extract_rut(const CrossSection& section, const RutConfig& params,
   geo.left_pile_x_mm = left_top >= 0 ? p.grid.x(left_top) : none;
   geo.right_pile_x_mm = right_top >= 0 ? p.grid.x(right_top) : none;
 
+  const double u_line = line_error_at(ws.ground_x, ws.ground_z, line, p.grid.x(k), ws.c);
+  const double unseen = unseen_excess(ws.h_fit, ws.slope, line.m, p.grid, o, out.depth_mm, norm, p.half);
+  geo.unseen_depth_mm = unseen;
+  const double u_gap = unseen / std::sqrt(3.0);
+  out.depth_uncertainty_mm = std::sqrt(wander * wander + u_line * u_line + u_gap * u_gap);
+  const double limit = params.max_depth_uncertainty_mm;
+  const double quality = limit > 0.0 ? std::clamp(1.0 - out.depth_uncertainty_mm / (2.0 * limit), 0.0, 1.0) : 0.0;
+
   if (o.left_edge || o.right_edge) {
     out.status = RutStatus::RutAtEdge;
   } else if (out.depth_mm < min_depth || out.width_mm < params.min_rut_width_mm ||
              out.width_mm > params.max_rut_width_mm) {
     out.status = RutStatus::NoRut;
   } else {
-    out.status = RutStatus::Ok;
-    out.quality = quality_of(section, o, ground, p.sigma);
+    // A depth was found: quality says how far to trust it, whether or not it is published.
+    out.quality = quality;
+    if (p.sigma > params.vegetation_roughness_mm) {
+      out.status = RutStatus::Vegetation;
+    } else if (out.depth_uncertainty_mm > limit) {
+      out.status = RutStatus::Uncertain;
+      out.conditions |= kConditionUncertain;
+    } else {
+      out.status = RutStatus::Ok;
+    }
   }
   return out;
 }

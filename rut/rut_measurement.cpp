@@ -10,6 +10,12 @@ std::string_view to_string(RutStatus status) noexcept {
     case RutStatus::NoGround: return "NO_GROUND";
     case RutStatus::RutAtEdge: return "RUT_AT_EDGE";
     case RutStatus::NoMeasurement: return "NO_MEASUREMENT";
+    case RutStatus::LensObstructed: return "LENS_OBSTRUCTED";
+    case RutStatus::BadExposure: return "BAD_EXPOSURE";
+    case RutStatus::CalibrationDrift: return "CALIBRATION_DRIFT";
+    case RutStatus::BottomNotSeen: return "BOTTOM_NOT_SEEN";
+    case RutStatus::Vegetation: return "VEGETATION";
+    case RutStatus::Uncertain: return "UNCERTAIN";
   }
   return "UNKNOWN";
 }

@@ -72,15 +72,18 @@ inline int count_lines(const std::filesystem::path& path, const std::string& nee
 }
 
 // One CAN frame as tests/can/decode_candump.py writes it (decoded by canmatrix with the DBC): its log time,
-// message name, and each signal's raw and physical value.
+// message name, and each signal's raw and physical value, its value-table text (empty if none) and
+// whether it was NOT AVAILABLE (all ones).
 struct DecodedFrame {
   std::int64_t t_ns = 0;
   std::string message;
   std::map<std::string, double> raw, phys;
+  std::map<std::string, std::string> named;
+  std::map<std::string, bool> na;
 };
 
-// The frames of decode_candump.py's CSV (header index,t_ns,message,signal,raw,phys,...; one line per
-// signal, a frame's lines sharing its index), in log order.
+// The frames of decode_candump.py's CSV (header index,t_ns,message,signal,raw,phys,named,na; one line
+// per signal, a frame's lines sharing its index), in log order.
 inline std::vector<DecodedFrame> read_decoded_csv(const std::filesystem::path& csv) {
   std::vector<DecodedFrame> frames;
   std::ifstream in(csv);
@@ -89,19 +92,23 @@ inline std::vector<DecodedFrame> read_decoded_csv(const std::filesystem::path& c
   long last_index = -1;
   while (std::getline(in, line)) {
     std::stringstream ss(line);
-    std::string index, t, message, signal, raw, phys;
+    std::string index, t, message, signal, raw, phys, named, na;
     std::getline(ss, index, ',');
     std::getline(ss, t, ',');
     std::getline(ss, message, ',');
     std::getline(ss, signal, ',');
     std::getline(ss, raw, ',');
     std::getline(ss, phys, ',');
+    std::getline(ss, named, ',');
+    std::getline(ss, na, ',');
     if (std::stol(index) != last_index) {
-      frames.push_back({std::stoll(t), message, {}, {}});
+      frames.push_back({std::stoll(t), message, {}, {}, {}, {}});
       last_index = std::stol(index);
     }
     frames.back().raw[signal] = std::stod(raw);
     frames.back().phys[signal] = std::stod(phys);
+    frames.back().named[signal] = named;
+    frames.back().na[signal] = na == "1";
   }
   return frames;
 }

@@ -34,6 +34,11 @@ constexpr Signal kRightPile{28, 12, 0.1, 0.0, 0.0, 200.0};
 constexpr Signal kSlope{40, 12, 0.02, -30.0, -30.0, 30.0};
 constexpr Signal kCenterX{52, 12, 0.5, -1000.0, -1000.0, 1000.0};
 constexpr Signal kFrameRate{24, 16, 0.01, 0.0, 0.0, 655.34};
+constexpr int kConditionsStartBit = 16;
+constexpr Signal kUncertainty{24, 12, 0.01, 0.0, 0.0, 40.94};
+constexpr Signal kVerticalDisparity{36, 12, 0.01, -20.0, -20.0, 20.94};
+constexpr Signal kLeftObstructed{48, 8, 0.4, 0.0, 0.0, 100.0};
+constexpr Signal kRightObstructed{56, 8, 0.4, 0.0, 0.0, 100.0};
 constexpr int kFlagsStartBit = 16;
 constexpr int kDroppedStartBit = 40;
 constexpr int kDroppedBits = 24;
@@ -67,7 +72,7 @@ void put(std::array<std::uint8_t, 8>& data, const Signal& s, double value, bool 
 
 std::uint8_t status_nibble(RutStatus status) noexcept {
   const auto v = static_cast<std::uint8_t>(status);
-  return v <= static_cast<std::uint8_t>(RutStatus::NoMeasurement) ? v : kUnknownStatus;
+  return v < kRutStatusCount ? v : kUnknownStatus;
 }
 
 // Writes counter and status into byte 1, then the CRC into byte 0 (see the header for the layout).
@@ -90,14 +95,16 @@ std::string check_can_id_config(const CanIdConfig& ids) {
   if (ids.source_address > 0xFD) return "source_address: 0xFE and 0xFF are not source addresses";
   const std::pair<const char*, std::uint32_t> pgns[] = {{"measurement1_pgn", ids.measurement1_pgn},
                                                         {"measurement2_pgn", ids.measurement2_pgn},
-                                                        {"status_pgn", ids.status_pgn}};
+                                                        {"status_pgn", ids.status_pgn},
+                                                        {"conditions_pgn", ids.conditions_pgn}};
   for (const auto& [name, pgn] : pgns) {
     if (pgn > 0x3FFFF) return std::string(name) + ": PGN must be 0..0x3FFFF";
     if (((pgn >> 8) & 0xFFU) < 0xF0) return std::string(name) + ": must be a broadcast (PDU2, PF >= 0xF0) PGN";
   }
   const std::pair<const char*, std::uint32_t> ids11[] = {{"measurement1_id_11bit", ids.measurement1_id_11bit},
                                                          {"measurement2_id_11bit", ids.measurement2_id_11bit},
-                                                         {"status_id_11bit", ids.status_id_11bit}};
+                                                         {"status_id_11bit", ids.status_id_11bit},
+                                                         {"conditions_id_11bit", ids.conditions_id_11bit}};
   for (const auto& [name, id] : ids11) {
     if (id > 0x7FF) return std::string(name) + ": must be 0..0x7FF";
   }
@@ -135,8 +142,20 @@ int CanEncoder::encode_measurement(const RutMeasurement& m, std::array<CanFrame,
   put(second.data, kCenterX, m.center_x_mm, ok);
   protect(second, kMeasurement2DataId, measurement_counter_, m.status);
 
+  last_measurement_counter_ = measurement_counter_;
   measurement_counter_ = next_counter(measurement_counter_);
   return 2;
+}
+
+CanFrame CanEncoder::encode_conditions(const RutMeasurement& m) const noexcept {
+  CanFrame frame = make_frame(ids_.conditions_pgn, ids_.conditions_id_11bit);
+  put_bits(frame.data, kConditionsStartBit, 8, m.conditions);
+  put(frame.data, kUncertainty, m.depth_uncertainty_mm, true);
+  put(frame.data, kVerticalDisparity, m.vertical_disparity_px, true);
+  put(frame.data, kLeftObstructed, m.obstructed_left * 100.0, true);
+  put(frame.data, kRightObstructed, m.obstructed_right * 100.0, true);
+  protect(frame, kConditionsDataId, last_measurement_counter_, m.status);
+  return frame;
 }
 
 CanFrame CanEncoder::encode_status(const SensorHealth& h) noexcept {

@@ -27,6 +27,7 @@ void CanSink::emit(const CanFrame& frame) {
 void CanSink::publish(const FrameWork& work, const SensorHealth&) {
   const int n = encoder_.encode_measurement(work.measurement, frames_);
   for (int i = 0; i < n; ++i) emit(frames_[static_cast<std::size_t>(i)]);
+  emit(encoder_.encode_conditions(work.measurement));
   if (log_stream_ != nullptr) log_stream_->flush();
 }
 

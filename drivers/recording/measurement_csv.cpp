@@ -15,7 +15,7 @@
 namespace rutd {
 namespace {
 
-constexpr int kStatusCount = 6;
+constexpr int kStatusCount = kRutStatusCount;
 constexpr int kColumnCount = 3 + kMeasurementFieldCount;
 
 struct FieldSpec {

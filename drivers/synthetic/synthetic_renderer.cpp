@@ -200,6 +200,23 @@ void validate_params(const SynthConfig& p) {
   const double tread = p.rut.tread ? p.rut.tread_depth_mm : 0.0;
   require(p.rig.height_mm - tilt > pile + tread + 10, "height_mm",
           "both cameras must be more than 10 mm above the highest pile");
+  const SceneConditions& c = p.conditions;
+  for (double v : {c.water_level_mm, c.water_albedo, c.splash_fraction, c.splash_centre, c.grass_height_mm,
+                   c.grass_spacing_mm, c.right_pitch_error_deg, c.right_roll_error_deg}) {
+    require(std::isfinite(v), "conditions", "every value must be finite");
+  }
+  require(c.water_level_mm >= 0, "water_level_mm", "must be >= 0");
+  if (c.water_level_mm > 0 && p.depth_profile.empty())
+    require(c.water_level_mm < p.rut.depth_mm, "water_level_mm", "must be below the rut depth");
+  require(c.water_albedo >= 0 && c.water_albedo <= 1, "water_albedo", "must be within [0, 1]");
+  require(c.splash_fraction >= 0, "splash_fraction", "must be >= 0");
+  require(c.splash_centre >= 0 && c.splash_centre <= 1, "splash_centre", "must be within [0, 1]");
+  require(c.grass_height_mm >= 0 && c.grass_height_mm <= 200, "grass_height_mm", "must be within [0, 200]");
+  require(c.grass_spacing_mm >= 1, "grass_spacing_mm", "must be >= 1");
+  require(p.rig.height_mm > pile + c.grass_height_mm + 10, "grass_height_mm",
+          "grass must stay more than 10 mm below the cameras");
+  require(std::abs(c.right_pitch_error_deg) <= 10 && std::abs(c.right_roll_error_deg) <= 10, "right_*_error_deg",
+          "must be within [-10, 10]");
 }
 
 }  // namespace
@@ -377,7 +394,10 @@ SyntheticRenderer::SyntheticRenderer(const SynthConfig& params)
   const cv::Matx33d misalignment =
       rot_z(rig.misalign_roll_deg * kDeg) * rot_y(rig.misalign_yaw_deg * kDeg) * rot_x(rig.misalign_pitch_deg * kDeg);
   left_.world_from_camera = rig_rotation * looking_down;
-  right_.world_from_camera = left_.world_from_camera * misalignment.t();
+  // The calibration written below keeps `misalignment`; SceneConditions may turn the real camera further.
+  const cv::Matx33d error =
+      rot_z(params_.conditions.right_roll_error_deg * kDeg) * rot_x(params_.conditions.right_pitch_error_deg * kDeg);
+  right_.world_from_camera = left_.world_from_camera * (error * misalignment).t();
   left_.rig_offset = rig_rotation * cv::Vec3d(-rig.baseline_mm / 2, 0, 0);
   right_.rig_offset = rig_rotation * cv::Vec3d(rig.baseline_mm / 2, 0, 0);
   left_.centres = pixel_centre_rays(left_.K, left_.dist, size, "distortion_left");
@@ -395,6 +415,7 @@ SyntheticRenderer::SyntheticRenderer(const SynthConfig& params)
   cv::stereoRectify(calibration_.M1, calibration_.D1, calibration_.M2, calibration_.D2, size, calibration_.R,
                     calibration_.T, R1, R2, P1, P2, Q, cv::CALIB_ZERO_DISPARITY);
   truth_rotation_ = cv::Matx33d(R1);
+  has_conditions_ = params_.conditions.water_level_mm > 0 || params_.conditions.grass_height_mm > 0;
   sun_ = cv::normalize(cv::Vec3d(0.35, 0.25, 0.9));
 }
 
@@ -508,6 +529,13 @@ double SyntheticRenderer::pixel_radiance(const CameraModel& m, const cv::Vec3d& 
       const cv::Vec3d dir = m.world_from_camera * sample_ray(m.K, centre, inverse_jacobian, du, dv);
       const double t = cast_ray(terrain, origin, dir);
       if (2 * i + 1 == n && 2 * j + 1 == n) t_centre = t * cv::norm(dir);
+      if (has_conditions_) {
+        const double covered = condition_radiance(terrain, origin, dir, t);
+        if (covered >= 0) {
+          sum += covered;
+          continue;
+        }
+      }
       if (t <= 0) continue;
       const cv::Vec3d p = origin + t * dir;
       const cv::Vec2d g = terrain.gradient_fast(p[0], p[1]);
@@ -548,6 +576,12 @@ void SyntheticRenderer::render_row(Camera camera, const cv::Vec3d& origin, const
         mean = pixel_radiance(m, origin, terrain, centres[u], n_edge, unused);
       }
     }
+    if (params_.conditions.splash_fraction > 0) {
+      // Out-of-focus mud on the lens: dark, with only a slow variation of its own.
+      const double alpha = splash_alpha(camera, u, row);
+      const double mud = 0.08 + 0.02 * std::cos(u / 37.0) * std::cos(row / 23.0);
+      mean = alpha * mud + (1 - alpha) * mean;
+    }
     double signal = scale * mean;  // grey levels of the 8-bit scale
     if (noisy) signal += std::sqrt(read_var + shot_gain * std::max(signal, 0.0)) * gauss();
     if (image.depth() == CV_8U) {
@@ -556,6 +590,85 @@ void SyntheticRenderer::render_row(Camera camera, const cv::Vec3d& origin, const
       image.ptr<std::uint16_t>(row)[u] = cv::saturate_cast<std::uint16_t>(signal * 257.0);
     }
   }
+}
+
+// ---------------------------------------------------------------------------------------------------
+// Scene conditions
+
+namespace {
+
+double unit_draw(std::uint64_t& state) { return static_cast<double>(splitmix64(state) >> 11) * 0x1.0p-53; }
+
+}  // namespace
+
+double SyntheticRenderer::condition_radiance(const RutTerrain& terrain, const cv::Vec3d& o, const cv::Vec3d& d,
+                                             double t) const noexcept {
+  const SceneConditions& c = params_.conditions;
+  if (!(d[2] < 0)) return -1;
+  if (c.water_level_mm > 0 && t > 0) {
+    // The ray's first terrain hit lies below the water plane: it crossed the plane where the terrain is
+    // lower still, i.e. over the pool, so it sees the surface there.
+    const double z_water = -terrain.shape().depth_mm + c.water_level_mm;
+    if (o[2] + t * d[2] < z_water) {
+      const cv::Vec3d view = -cv::normalize(d);
+      const double fresnel = 0.02 + 0.98 * std::pow(1 - view[2], 5);  // Schlick, n = 1.33
+      const double sky = 0.6 + 0.4 * view[2];                         // the reflected ray's elevation equals the view's
+      return c.water_albedo * (kAmbient + (1 - kAmbient) * sun_[2]) + fresnel * sky;
+    }
+  }
+  if (c.grass_height_mm <= 0) return -1;
+  // Blades: one per cell, a leaning cylinder from the terrain up; the nearest one the ray passes within
+  // its radius, in front of the terrain hit, is seen.
+  const double top = terrain.max_height() + c.grass_height_mm;
+  const double t0 = (top - o[2]) / d[2];
+  const double t1 = t > 0 ? t : (terrain.min_height() - o[2]) / d[2];
+  if (t1 <= 0) return -1;
+  const cv::Vec3d a = o + std::max(t0, 0.0) * d, b = o + t1 * d;
+  const double reach = 0.5 * c.grass_height_mm + 2.0;  // lean plus radius
+  const double cell = c.grass_spacing_mm;
+  const int i0 = int(std::floor((std::min(a[0], b[0]) - reach) / cell));
+  const int i1 = int(std::floor((std::max(a[0], b[0]) + reach) / cell));
+  const int j0 = int(std::floor((std::min(a[1], b[1]) - reach) / cell));
+  const int j1 = int(std::floor((std::max(a[1], b[1]) + reach) / cell));
+  double best_t = t > 0 ? t : 1e300, best = -1;
+  const double half_width = 0.5 * terrain.shape().width_mm;
+  for (int i = i0; i <= i1; ++i) {
+    for (int j = j0; j <= j1; ++j) {
+      std::uint64_t state = params_.seed * 0x2545F4914F6CDD1Dull ^ (std::uint64_t(std::uint32_t(i)) << 32) ^
+                            std::uint64_t(std::uint32_t(j));
+      const double bx = (i + unit_draw(state)) * cell, by = (j + unit_draw(state)) * cell;
+      if (std::abs(bx - terrain.centreline_x(by)) < half_width) continue;  // the tyre flattened it
+      const double length = c.grass_height_mm * (0.4 + 0.6 * unit_draw(state));
+      const cv::Vec3d base(bx, by, terrain.height_fast(bx, by));
+      const cv::Vec3d axis(0.8 * length * (unit_draw(state) - 0.5), 0.8 * length * (unit_draw(state) - 0.5), length);
+      const double radius = 0.6 + 0.6 * unit_draw(state);
+      const double shade = 0.25 + 0.35 * unit_draw(state), phase = 6.0 * unit_draw(state);
+      const cv::Vec3d w0 = o - base;
+      const double aa = d.dot(d), ab = d.dot(axis), cc = axis.dot(axis), dd = d.dot(w0), ee = axis.dot(w0);
+      const double den = aa * cc - ab * ab;
+      if (den <= 1e-12) continue;
+      const double tc = (ab * ee - cc * dd) / den, sc = (aa * ee - ab * dd) / den;
+      if (sc < 0 || sc > 1 || tc <= 0 || tc >= best_t) continue;
+      const cv::Vec3d gap = (o + tc * d) - (base + sc * axis);
+      if (gap.dot(gap) > radius * radius) continue;
+      best_t = tc;
+      // Darker near the soil, veined along the blade.
+      best = shade * (0.55 + 0.45 * sc) * (0.75 + 0.25 * std::sin(2 * kPi * 3 * sc + phase));
+    }
+  }
+  return best;
+}
+
+double SyntheticRenderer::splash_alpha(Camera camera, int u, int v) const noexcept {
+  const SceneConditions& c = params_.conditions;
+  if (camera != c.splash_camera || c.splash_fraction <= 0) return 0;
+  if (c.splash_fraction >= 1) return 1;
+  const cv::Size size = params_.rig.image_size;
+  const double a = 0.5 * c.splash_fraction * size.width;  // half-width, px
+  const double b = std::max(a, 0.3 * size.height);        // tall enough to cover the strip
+  const double x = (u - c.splash_centre * (size.width - 1)) / a, y = (v - 0.5 * (size.height - 1)) / b;
+  const double r = std::sqrt(x * x + y * y);
+  return std::clamp(0.5 + (1 - r) * a / 6.0, 0.0, 1.0);  // edge blurred over about 6 px
 }
 
 // ---------------------------------------------------------------------------------------------------

@@ -7,7 +7,8 @@ Decoding uses canmatrix's DBC loader and frame decoder. The end-to-end protectio
 this script's own bitwise CRC-8/SAE-J1850 (poly 0x1D, init 0xFF, xor-out 0xFF) over the message's
 E2E_DataID attribute (low byte, high byte) followed by payload bytes 1..7, compared with byte 0; the
 rolling counter (signal *_Counter, 0..14) must advance by one per frame of a message, and a message
-listed in SAME_COUNTER_AS must carry the counter of the frame it follows.
+listed in SAME_COUNTER_AS must carry the counter of the frame it follows (at most once per leader
+frame; the leader must be followed by every message in REQUIRED_PARTNERS before it comes again).
 
 Prints CSV on stdout, one line per decoded signal:
     index,t_ns,message,signal,raw,phys,named,na
@@ -28,7 +29,8 @@ except ImportError:
     print("canmatrix is not installed for this interpreter", file=sys.stderr)
     sys.exit(2)
 
-SAME_COUNTER_AS = {"RutMeasurement2": "RutMeasurement1"}
+SAME_COUNTER_AS = {"RutMeasurement2": "RutMeasurement1", "RutConditions": "RutMeasurement1"}
+REQUIRED_PARTNERS = {"RutMeasurement1": {"RutMeasurement2"}}
 COUNTER_MODULO = 15
 LINE = re.compile(r"^\((\d+)\.(\d{6})\)\s+(\S+)\s+([0-9A-Fa-f]{3}|[0-9A-Fa-f]{8})#((?:[0-9A-Fa-f]{2})*)\s*$")
 
@@ -61,24 +63,28 @@ def counter_signal(frame):
 
 
 def check_counter(name, counter, last_counter, unpaired):
-    """Returns what is wrong with this frame's counter, or an empty string."""
+    """Returns what is wrong with this frame's counter, or an empty string. unpaired: leader name ->
+    (its last counter, the followers seen since)."""
     if counter >= COUNTER_MODULO:
         return f"counter {counter} out of range"
     leader = SAME_COUNTER_AS.get(name)
     if leader is not None:
         if leader not in unpaired:
             return f"no {leader} frame before it"
-        want = unpaired.pop(leader)
+        want, seen = unpaired[leader]
+        if name in seen:
+            return f"a second {name} after one {leader}"
+        seen.add(name)
         return "" if counter == want else f"counter {counter}, its {leader} had {want}"
     error = ""
-    if name in unpaired:
+    if name in unpaired and not REQUIRED_PARTNERS.get(name, set()) <= unpaired[name][1]:
         error = f"the previous {name} was not followed by its partner"
     previous = last_counter.get(name)
     if previous is not None and counter != (previous + 1) % COUNTER_MODULO:
         error = f"counter {counter} after {previous}"
     last_counter[name] = counter
     if name in SAME_COUNTER_AS.values():
-        unpaired[name] = counter
+        unpaired[name] = (counter, set())
     return error
 
 

@@ -120,6 +120,9 @@ constexpr Range kPile{0, 200, 0.1};
 constexpr Range kSlope{-30, 30, 0.02};
 constexpr Range kCenter{-1000, 1000, 0.5};
 constexpr Range kFrameRate{0, 655.34, 0.01};
+constexpr Range kUncertainty{0, 40.94, 0.01};
+constexpr Range kVerticalDisparity{-20, 20.94, 0.01};
+constexpr Range kShare{0, 100, 0.4};
 
 struct Expect {
   bool na = false;
@@ -137,9 +140,9 @@ Expect exact(double v, std::string named = {}) { return {false, v, 1e-9, std::mo
 Expect not_available() { return {true, 0, 0, {}}; }
 
 std::string status_text(RutStatus s) {
-  return static_cast<int>(s) <= 5 ? std::string(to_string(s)) : std::string("UNKNOWN");
+  return static_cast<int>(s) < kRutStatusCount ? std::string(to_string(s)) : std::string("UNKNOWN");
 }
-double status_raw(RutStatus s) { return static_cast<int>(s) <= 5 ? static_cast<int>(s) : 15; }
+double status_raw(RutStatus s) { return static_cast<int>(s) < kRutStatusCount ? static_cast<int>(s) : 15; }
 
 using Expectations = std::map<std::pair<int, std::string>, Expect>;  // (frame index, signal) -> value
 
@@ -158,6 +161,18 @@ void expect_measurement(Expectations& e, int index, int counter, const RutMeasur
   e[{index + 1, "RutRightPile"}] = field(m.right_pile_mm, kPile);
   e[{index + 1, "GroundSlope"}] = field(m.ground_slope_deg, kSlope);
   e[{index + 1, "RutCenterX"}] = field(m.center_x_mm, kCenter);
+}
+
+void expect_conditions(Expectations& e, int index, int counter, const RutMeasurement& m) {
+  e[{index, "RutC_Counter"}] = exact(counter);
+  e[{index, "RutC_Status"}] = exact(status_raw(m.status), status_text(m.status));
+  const char* flags[] = {"Water",       "LeftLensObstructed", "RightLensObstructed", "LowLight",
+                         "Overexposed", "Vegetation",         "CalibrationDrift",    "DepthUncertain"};
+  for (int bit = 0; bit < 8; ++bit) e[{index, flags[bit]}] = exact((m.conditions >> bit) & 1U);
+  e[{index, "DepthUncertainty"}] = physical(m.depth_uncertainty_mm, kUncertainty);
+  e[{index, "VerticalDisparity"}] = physical(m.vertical_disparity_px, kVerticalDisparity);
+  e[{index, "LeftObstructedShare"}] = physical(m.obstructed_left * 100.0, kShare);
+  e[{index, "RightObstructedShare"}] = physical(m.obstructed_right * 100.0, kShare);
 }
 
 void expect_status(Expectations& e, int index, int counter, const SensorHealth& h) {
@@ -203,6 +218,11 @@ RutMeasurement random_measurement(std::mt19937& rng, RutStatus status) {
       ok_measurement(spill(rng, kDepth), spill(rng, kWidth), spill(rng, kPile), spill(rng, kPile), spill(rng, kArea),
                      spill(rng, kSlope), spill(rng, kCenter), spill(rng, kQualityPercent) / 100.0);
   m.status = status;
+  m.conditions = static_cast<std::uint8_t>(std::uniform_int_distribution<int>(0, 255)(rng));
+  m.depth_uncertainty_mm = spill(rng, kUncertainty);
+  m.vertical_disparity_px = spill(rng, kVerticalDisparity);
+  m.obstructed_left = spill(rng, kShare) / 100.0;
+  m.obstructed_right = spill(rng, kShare) / 100.0;
   return m;
 }
 
@@ -221,8 +241,8 @@ std::vector<RutMeasurement> measurement_cases() {
     cases.push_back(ok_measurement(v[0], v[1], v[2], v[3], v[4], v[5], v[6], v[7]));
   }
   std::mt19937 rng(20240601);
-  for (int s = 0; s <= 5; ++s) cases.push_back(random_measurement(rng, static_cast<RutStatus>(s)));
-  cases.push_back(random_measurement(rng, static_cast<RutStatus>(9)));  // not a RutStatus value
+  for (int s = 0; s < kRutStatusCount; ++s) cases.push_back(random_measurement(rng, static_cast<RutStatus>(s)));
+  cases.push_back(random_measurement(rng, static_cast<RutStatus>(13)));  // not a RutStatus value
   for (int i = 0; i < 200; ++i) cases.push_back(random_measurement(rng, RutStatus::Ok));
   return cases;
 }
@@ -270,6 +290,10 @@ std::pair<Expectations, std::vector<CanFrame>> write_log(const fs::path& log_pat
       frames.push_back(out[static_cast<std::size_t>(i)]);
       times.push_back(t + i * 150'000);
     }
+    expect_conditions(expected, static_cast<int>(frames.size()), static_cast<int>(k % 15), cases[k]);
+    frames.push_back(encoder.encode_conditions(cases[k]));
+    times.push_back(t + n * 150'000);
+    EXPECT_TRUE(writer.write(frames.back(), times.back()));
     if (k % 10 == 9) {
       const SensorHealth h = health_case(rng, status_count);
       expect_status(expected, static_cast<int>(frames.size()), status_count % 15, h);
@@ -292,7 +316,9 @@ TEST(CanEncoder, DefaultIdentifiersAreJ1939ProprietaryB) {
   EXPECT_EQ(out[0].id, 0x18FF50A0U);
   EXPECT_EQ(out[1].id, 0x18FF51A0U);
   EXPECT_EQ(status.id, 0x18FF52A0U);
-  for (const CanFrame& f : {out[0], out[1], status}) {
+  const CanFrame conditions = encoder.encode_conditions(RutMeasurement{});
+  EXPECT_EQ(conditions.id, 0x18FF53A0U);
+  for (const CanFrame& f : {out[0], out[1], status, conditions}) {
     EXPECT_TRUE(f.extended);
     EXPECT_EQ(f.len, 8);
   }
@@ -324,6 +350,9 @@ TEST(CanEncoder, ElevenBitIdentifiersCarryTheSamePayload) {
     EXPECT_FALSE(a[0].extended);
     EXPECT_EQ(a[0].data, b[0].data);
     EXPECT_EQ(a[1].data, b[1].data);
+    const CanFrame ca = standard.encode_conditions(m), cb = extended.encode_conditions(m);
+    EXPECT_EQ(ca.id, 0x353U);
+    EXPECT_EQ(ca.data, cb.data);
   }
   SensorHealth h;
   h.frame_rate_hz = 30;
@@ -354,6 +383,7 @@ TEST(CanEncoder, MeasurementFramesShareACounterThatRunsZeroToFourteen) {
     encoder.encode_measurement(RutMeasurement{}, out);
     EXPECT_EQ(out[0].data[1] & 0x0F, k % 15);
     EXPECT_EQ(out[1].data[1] & 0x0F, k % 15);
+    EXPECT_EQ(encoder.encode_conditions(RutMeasurement{}).data[1] & 0x0F, k % 15);
   }
 }
 

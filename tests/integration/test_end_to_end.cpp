@@ -1,6 +1,8 @@
 // End to end through the rutd program, as a user runs it: `rutd synth` renders a recording of a rut of
 // known shape (the renderer's analytic truth is the independent reference), `rutd replay` measures it,
 // and every measured depth must be within 1.0 mm of the truth (the seed's own algorithm was 3-5 mm off).
+// These scenes are clean: the CAN frames, decoded with the DBC by canmatrix, must carry no condition
+// flag (README, "Conditions rutd flags").
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
@@ -11,6 +13,7 @@
 
 #include <gtest/gtest.h>
 
+#include "decoded_candump.hpp"
 #include "recording/measurement_csv.hpp"
 #include "synthetic/truth_csv.hpp"
 #include "test_support.hpp"
@@ -43,10 +46,14 @@ std::string synthesize(const Case& c, const test::TempDir& tmp) {
   return rec;
 }
 
-// `rutd replay` of rec; engine: "" for the configured default, else a --engine name.
+// `rutd replay` of rec, its CAN frames logged to tmp/can<engine>.log; engine: "" for the configured
+// default, else a --engine name.
 std::vector<MeasurementRow> replay(const std::string& rec, const std::string& engine, const test::TempDir& tmp) {
   const std::string csv = (tmp.path() / ("m" + engine + ".csv")).string();
-  EXPECT_EQ(test::run_rutd("replay " + rec + " --out " + csv + (engine.empty() ? "" : " --engine " + engine)), 0);
+  const std::string log = (tmp.path() / ("can" + engine + ".log")).string();
+  EXPECT_EQ(test::run_rutd("replay " + rec + " --out " + csv + " --candump " + log +
+                           (engine.empty() ? "" : " --engine " + engine)),
+            0);
   return read_measurement_csv(csv).rows;
 }
 
@@ -55,6 +62,7 @@ void expect_depth_within_one_millimetre(const Case& c, const std::string& engine
   const std::string rec = synthesize(c, tmp);
   const auto truth = read_truth_csv(rec + "/truth.csv");
   const auto rows = replay(rec, engine, tmp);
+  const auto log = tmp.path() / ("can" + engine + ".log");
   ASSERT_EQ(rows.size(), truth.size());
   for (std::size_t i = 0; i < rows.size(); ++i) {
     ASSERT_EQ(rows[i].measurement.status, RutStatus::Ok) << "frame " << i;
@@ -62,6 +70,22 @@ void expect_depth_within_one_millimetre(const Case& c, const std::string& engine
     std::printf("%-28s frame %zu  truth %.2f  measured %.3f  error %+.3f mm  width %.1f/%.1f\n", c.name, i,
                 truth[i].depth_mm, rows[i].measurement.depth_mm, err, rows[i].measurement.width_mm, truth[i].width_mm);
     EXPECT_LE(std::abs(err), 1.0) << c.name << " frame " << i;
+  }
+  if (!test::have_canmatrix()) {
+    std::printf("condition flags not checked: needs /usr/bin/python3 with canmatrix (python3-canmatrix)\n");
+    return;
+  }
+  bool decoded = false;
+  const auto conditions = test::frames_of(test::decode_candump(log, decoded), "RutConditions");
+  EXPECT_TRUE(decoded) << "decoder reported CRC, counter or format errors";
+  ASSERT_EQ(conditions.size(), rows.size());
+  const char* flags[] = {"Water",       "LeftLensObstructed", "RightLensObstructed", "LowLight",
+                         "Overexposed", "Vegetation",         "CalibrationDrift",    "DepthUncertain"};
+  for (std::size_t i = 0; i < conditions.size(); ++i) {
+    for (const char* flag : flags)
+      EXPECT_EQ(conditions[i].phys.at(flag), 0) << c.name << " frame " << i << ": " << flag;
+    std::printf("%-28s frame %zu  uncertainty %.2f mm  vertical disparity %+.2f px\n", c.name, i,
+                conditions[i].phys.at("DepthUncertainty"), conditions[i].phys.at("VerticalDisparity"));
   }
 }
 

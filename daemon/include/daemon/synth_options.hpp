@@ -14,6 +14,7 @@ struct SynthOptions {
   std::string size = "640x480";
   std::string texture = "sand";
   std::string depth_profile;  // "frame:depth,frame:depth,..."
+  std::string splash_camera = "left";
 };
 
 void add_synth_options(CLI::App& cmd, SynthOptions& options);

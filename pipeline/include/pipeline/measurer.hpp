@@ -4,7 +4,8 @@
 //   rectify  - remap the strip of both raw images (rows around the measured strip)
 //   match    - find the disparity band (or keep the last frame's while it fits: BandTracker), match,
 //              refine by digital image correlation
-//   extract  - reproject to millimetres, reduce to a cross-section, extract the rut
+//   extract  - reproject to millimetres, reduce to a cross-section, extract the rut, check the frame for
+//              the conditions that would make the depth wrong (pipeline/frame_checks.hpp)
 // Per-frame path: nothing here throws because of frame content; a status says what went wrong.
 #include <memory>
 #include <optional>
@@ -15,6 +16,7 @@
 #include "core/stereo_frame.hpp"
 #include "pipeline/dic_refine.hpp"
 #include "pipeline/disparity.hpp"
+#include "pipeline/frame_checks.hpp"
 #include "pipeline/stereo_geometry.hpp"
 #include "rut/extract.hpp"
 #include "rut/rut_measurement.hpp"
@@ -54,6 +56,7 @@ struct MeasurerConfig {
   static constexpr int kMaxReusedFrames = 15;
   static constexpr double kMinReusedShare = 0.97;
   RutConfig rut;
+  ConditionConfig conditions;
 };
 
 // Figures of one frame's measurement, for logs and benchmarks. Milliseconds of thread time per stage.
@@ -62,7 +65,8 @@ struct MeasurementDiagnostics {
   bool band_estimated = false;  // false: the last frame's band was kept (BandTracker), or fixed_band
   bool starts_reused = false;   // the DIC started from the last frame's disparity; the engine did not run
   DicStats dic;
-  double rectify_ms = 0, band_ms = 0, disparity_ms = 0, dic_ms = 0, reproject_ms = 0, rut_ms = 0;
+  double rectify_ms = 0, band_ms = 0, disparity_ms = 0, dic_ms = 0, reproject_ms = 0,
+         rut_ms = 0;  // rut_ms: extraction and frame checks
 };
 
 // Everything one pair needs on its way through the stages. Frame pools hold these; every buffer is
@@ -76,6 +80,7 @@ struct FrameWork {
   CrossSection section;
   RutMeasurement measurement;
   MeasurementDiagnostics diag;
+  FrameCheckScratch checks;
 };
 
 // What the match stage needs of its own: one per thread that runs match().

@@ -44,6 +44,18 @@ struct RutConfig {
   // reduce_to_cross_section: fraction of samples dropped at each end of every bin before averaging
   // (0.25 = interquartile mean: robust to stereo outliers, ~85 % of the mean's efficiency).
   double trim_fraction = 0.25;
+  // A depth whose estimated standard uncertainty (RutMeasurement::depth_uncertainty_mm, see
+  // extract_rut) exceeds this is not Ok but Uncertain. 0.6 mm: the 1 mm tolerance is then 1.65
+  // standard uncertainties, which a normal error exceeds on one side 5 % of the time. The estimate is
+  // honest on clean rendered snow, whose correlated stereo noise is the largest (u 0.32-0.50 mm,
+  // errors up to 0.42 mm), so a tighter limit refuses depths that are right; a bottom not seen
+  // (coverage term) gives estimates of tens of millimetres.
+  double max_depth_uncertainty_mm = 0.6;
+  // Soil seen by stereo and averaged along the strip is smooth at the scale of a bin: its per-bin
+  // scatter about the local parabola is the stereo noise, a few tenths of a millimetre. Grass blades
+  // standing above the soil put single bins millimetres above or below their neighbours. A scatter
+  // (robust sigma of raw bins about the local fit) above this is Vegetation, mm.
+  double vegetation_roughness_mm = 1.5;
   // reduce_to_cross_section: the section never spans more than this; points beyond it (reprojection
   // outliers far off to the side) are dropped, which also bounds the memory a frame can claim.
   double max_section_mm = 4000.0;
@@ -74,6 +86,12 @@ struct RutGeometry {
   double left_x_mm = 0.0, right_x_mm = 0.0;  // the ground-line crossings that define width_mm
   // X of each pile's top; NaN where the pile is reported as 0.
   double left_pile_x_mm = 0.0, right_pile_x_mm = 0.0;
+  // Scatter of the raw bins about the local fit (robust sigma, mm): the profile's roughness; valid
+  // whenever the status is not TooFewPoints.
+  double roughness_mm = 0.0;
+  // How much deeper than the depth the rut could be where it was not seen (gaps inside the opening
+  // whose walls still descend into them; see extract_rut's coverage term), mm; valid with has_rut.
+  double unseen_depth_mm = 0.0;
 };
 
 // Scratch vectors reused between frames by extract_rut; contents unspecified, except `geometry`.
@@ -86,6 +104,7 @@ struct RutWorkspace {
   std::vector<double> a;       // general scratch (residuals, fit inputs)
   std::vector<double> b;
   std::vector<double> c;
+  std::vector<double> ground_x, ground_z;  // the ground bins of the last line fit
 };
 
 // xyz: CV_32FC3 strip of 3D points (X, Y, Z in mm), a point is invalid if any coordinate is NaN/inf
@@ -97,7 +116,20 @@ void reduce_to_cross_section(const cv::Mat& xyz, const RutConfig& params, CrossS
 
 // The seed method of DESIGN.md §5 in mm units, made robust (see extract.cpp for the steps). Pure:
 // depends only on its arguments. Fills every field it could measure; only status Ok guarantees all
-// of them, and quality is 0 unless the status is Ok.
+// of them. Once a depth is found, depth_uncertainty_mm estimates its standard uncertainty as the root
+// sum of squares of
+//   - the noise of the smoothed profile at the bottom (its wander, from the fit residuals and the
+//     smoothed ground's scatter about the line);
+//   - the ground line's standard error at the deepest point (residual scatter of the ground bins,
+//     their number and lever arm);
+//   - the coverage across the rut: over a gap without valid bins inside the opening the bottom is not
+//     seen; the profile could continue down with the slopes at the gap's edges (the steepest within
+//     half a fit window of each) until the two meet (a V; half the gap's width where only one edge
+//     descends; RutGeometry::unseen_depth_mm), and that extra depth (taken as uniformly
+//     distributed, / sqrt(3)) counts where it would exceed the measured depth;
+// and quality = 1 - u / (2 max_depth_uncertainty_mm), clamped to 0..1 (0 unless the status is Ok,
+// Uncertain or Vegetation). A rough profile is Vegetation and a depth with u above the limit Uncertain
+// (both with the depth computed but not Ok).
 RutMeasurement extract_rut(const CrossSection& section, const RutConfig& params, RutWorkspace& ws);
 
 }  // namespace rutd

@@ -8,7 +8,8 @@
 //   RutMeasurement1  PGN 0xFF50  -> 0x18FF50A0 with priority 6 and source address 0xA0
 //   RutMeasurement2  PGN 0xFF51  -> 0x18FF51A0
 //   RutSensorStatus  PGN 0xFF52  -> 0x18FF52A0
-// or, with `extended = false`, the 11-bit identifiers of CanIdConfig (0x350, 0x351, 0x352).
+//   RutConditions    PGN 0xFF53  -> 0x18FF53A0
+// or, with `extended = false`, the 11-bit identifiers of CanIdConfig (0x350, 0x351, 0x352, 0x353).
 //
 // Payload, all three frames 8 bytes, signals little-endian (Intel), unsigned, physical = raw * factor +
 // offset. Protection in the AUTOSAR E2E profile 1 layout:
@@ -17,7 +18,8 @@
 //   byte 1 bits 0-3 rolling counter 0..14, then back to 0 (15 is never sent, as in profile 1). Both
 //                   measurement frames of one measurement carry the same value; the status frame
 //                   has its own counter.
-//   Data IDs        RutMeasurement1 0xFF50, RutMeasurement2 0xFF51, RutSensorStatus 0xFF52. They are
+//   Data IDs        RutMeasurement1 0xFF50, RutMeasurement2 0xFF51, RutSensorStatus 0xFF52,
+//                   RutConditions 0xFF53. They are
 //                   fixed per message (not derived from the configured identifiers) so a receiver's
 //                   check does not depend on the addressing. Unlike a strict profile 1 CRC (which
 //                   starts from 0x00 and ends without xor), the catalogue parameters above are used.
@@ -32,6 +34,15 @@
 //                    bits 28..39   right pile  0.1 mm   0..200 mm
 //                    bits 40..51   ground slope 0.02 deg, offset -30 deg: -30..+30 deg
 //                    bits 52..63   rut centre X 0.5 mm, offset -1000 mm: -1000..+1000 mm
+//   RutConditions    byte 1 bits 4-7  status (as above); same counter as the measurement's frames, sent
+//                                  right after them, whatever the status
+//                    bits 16..23   condition flags, one bit each in RutCondition's order: water / flat
+//                                  patch, left lens obstructed, right lens obstructed, low light,
+//                                  overexposed, vegetation, calibration drift, depth uncertain
+//                    bits 24..35   depth uncertainty   0.01 mm   0..40.94 mm
+//                    bits 36..47   vertical disparity  0.01 px, offset -20 px: -20..+20.94 px
+//                    bits 48..55   left lens obstructed   0.4 %   0..100 % of the strip's blocks
+//                    bits 56..63   right lens obstructed  0.4 %   0..100 %
 //   RutSensorStatus  byte 1 bits 4-7  status of the latest measurement (SensorHealth::last_status)
 //                    bits 16..23   health flags, one bit each in SensorHealth's order: no camera,
 //                                  stale frames, calibration invalid, low texture, frame drops,
@@ -58,9 +69,11 @@ struct CanIdConfig {
   std::uint32_t measurement1_pgn = 0xFF50;  // PDU2 PGNs (PF >= 0xF0), 0..0x3FFFF
   std::uint32_t measurement2_pgn = 0xFF51;
   std::uint32_t status_pgn = 0xFF52;
+  std::uint32_t conditions_pgn = 0xFF53;
   std::uint32_t measurement1_id_11bit = 0x350;  // 0..0x7FF
   std::uint32_t measurement2_id_11bit = 0x351;
   std::uint32_t status_id_11bit = 0x352;
+  std::uint32_t conditions_id_11bit = 0x353;
 };
 
 // Empty if `ids` is usable, else what is wrong, naming the field (for the configuration loader).
@@ -75,6 +88,7 @@ constexpr std::uint32_t j1939_id(std::uint8_t priority, std::uint32_t pgn, std::
 inline constexpr std::uint16_t kMeasurement1DataId = 0xFF50;
 inline constexpr std::uint16_t kMeasurement2DataId = 0xFF51;
 inline constexpr std::uint16_t kStatusDataId = 0xFF52;
+inline constexpr std::uint16_t kConditionsDataId = 0xFF53;
 
 class CanEncoder {  // not thread-safe: one publisher thread owns it. Keeps the rolling counters.
  public:
@@ -84,6 +98,10 @@ class CanEncoder {  // not thread-safe: one publisher thread owns it. Keeps the 
   // Fills out[0] (RutMeasurement1) and out[1] (RutMeasurement2) for one measurement and returns the
   // number of frames filled (2). Advances the measurement counter.
   int encode_measurement(const RutMeasurement& m, std::array<CanFrame, 2>& out) noexcept;
+
+  // The RutConditions frame of the measurement last passed to encode_measurement (its counter value):
+  // what the frame checks saw, whatever the status. Send it right after that measurement's frames.
+  CanFrame encode_conditions(const RutMeasurement& m) const noexcept;
 
   // The RutSensorStatus frame. Advances the status counter.
   CanFrame encode_status(const SensorHealth& h) noexcept;
@@ -95,6 +113,7 @@ class CanEncoder {  // not thread-safe: one publisher thread owns it. Keeps the 
 
   CanIdConfig ids_;
   std::uint8_t measurement_counter_ = 0;
+  std::uint8_t last_measurement_counter_ = 0;
   std::uint8_t status_counter_ = 0;
 };
 

@@ -53,6 +53,33 @@ struct RigConfig {
   double misalign_roll_deg = 0.2;
 };
 
+enum class Camera { Left, Right };
+
+// Conditions that defeat stereo measurement, to show that rutd flags them (README, "Conditions"). All
+// off by default; none changes the ground truth (RutTruth describes the soil, which is what a
+// measurement must report or refuse).
+struct SceneConditions {
+  // > 0: still water fills the rut up to this height above its bottom, mm (below the rut's depth). Its
+  // surface is flat and textureless: murky water (uniform albedo water_albedo) plus the Fresnel
+  // reflection of a smooth sky, so it has no texture stereo could match.
+  double water_level_mm = 0;
+  double water_albedo = 0.3;
+  // > 0: an opaque out-of-focus blob (mud splash) on one lens covering this fraction of the image width
+  // across the measured strip (centred on splash_centre, a fraction of the width); >= 1: the lens is
+  // fully covered.
+  double splash_fraction = 0;
+  double splash_centre = 0.5;
+  Camera splash_camera = Camera::Left;
+  // > 0: grass blades up to this tall (mm) standing on the ground outside the rut opening, one per
+  // grass_spacing_mm square cell, each leaning and shaded by its own random draw (seed).
+  double grass_height_mm = 0;
+  double grass_spacing_mm = 6;
+  // The right camera rotated against the calibration the renderer writes (degrees, about its own x axis,
+  // i.e. pitch, which moves rows, and its z axis, roll): a calibration that no longer fits.
+  double right_pitch_error_deg = 0;
+  double right_roll_error_deg = 0;
+};
+
 struct SynthConfig {
   RigConfig rig;
   RutShape rut;
@@ -62,6 +89,7 @@ struct SynthConfig {
   double noise_sigma = 1.5;    // read noise, grey levels of the 8-bit scale; 0 = none
   double full_well_e = 20000;  // electrons at full scale, sets the shot noise; 0 = no shot noise
   double exposure = 1.0;       // radiance 1 (white, facing the sun) maps to exposure * 255 grey levels
+                               // (under 1/8: a dark scene; several: saturated)
   std::uint64_t seed = 1;      // texture and noise; same seed and frame index = same images
   DepthProfile depth_profile;  // (frame, depth_mm) knots; empty = rut.depth_mm for every frame
   // Samples per pixel side, 1..8 (box filter). Each sample sees the texture band-limited to the sample
@@ -75,9 +103,8 @@ struct SynthConfig {
   // false: point samples of the full texture (aliases unless supersample is large; for comparisons).
   bool band_limit = true;
   int bit_depth = 8;  // 8 (CV_8UC1) or 16 (CV_16UC1, full scale 65535)
+  SceneConditions conditions;
 };
-
-enum class Camera { Left, Right };
 
 // Immutable after construction; all const members are thread-safe. render() allocates only when the
 // frame's buffers do not already have the right size and type.
@@ -130,6 +157,12 @@ class SyntheticRenderer {
                         const cv::Vec2d& centre, int n, double& t_centre) const noexcept;
   // Shaded albedo (0..1) at hit p with terrain gradient g, for samples footprint_mm apart there.
   float radiance(const cv::Vec3d& p, const cv::Vec2d& g, double footprint_mm) const noexcept;
+  // SceneConditions: radiance of the water surface or of a grass blade on the ray origin + t dir (t:
+  // the terrain hit, < 0 none) when either is in front of the terrain; negative otherwise.
+  double condition_radiance(const RutTerrain& terrain, const cv::Vec3d& origin, const cv::Vec3d& dir,
+                            double t) const noexcept;
+  // SceneConditions: opacity 0..1 of the lens splash at raw pixel (u, v) of `camera`.
+  double splash_alpha(Camera camera, int u, int v) const noexcept;
   const CameraModel& model(Camera camera) const noexcept { return camera == Camera::Left ? left_ : right_; }
 
   SynthConfig params_;
@@ -137,7 +170,8 @@ class SyntheticRenderer {
   cv::Matx33d truth_rotation_;
   CameraModel left_, right_;
   SolidTexture texture_;
-  cv::Vec3d sun_;  // unit vector towards the sun, world frame
+  cv::Vec3d sun_;                // unit vector towards the sun, world frame
+  bool has_conditions_ = false;  // water or grass: condition_radiance() is asked per sample
 };
 
 // First t > 0 where origin + t * dir meets the terrain (dir need not be unit; dir.z < 0 required for a

@@ -1,0 +1,343 @@
+// Per-frame condition checks (pipeline/frame_checks.hpp).
+#include "pipeline/frame_checks.hpp"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+#include <string>
+
+#include <opencv2/imgproc.hpp>
+
+namespace rutd {
+namespace {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+constexpr double kFullScale = 255.0;
+
+void require(bool ok, const char* field, const char* what) {
+  if (!ok) throw std::invalid_argument(std::string("conditions: ") + field + ": " + what);
+}
+
+// Block sums over every second measured row of one strip; returns the histogram's median grey level
+// and counts saturated pixels.
+struct StripStats {
+  int median = 0;
+  double saturated = 0.0;  // fraction
+};
+
+StripStats block_stats(const cv::Mat& strip, int row_begin, int row_end, int block, double saturated_level,
+                       std::vector<double>& sum, std::vector<double>& grad2, std::vector<int>& count) {
+  const int blocks = strip.cols / block;
+  sum.assign(static_cast<std::size_t>(blocks), 0.0);
+  grad2.assign(static_cast<std::size_t>(blocks), 0.0);
+  count.assign(static_cast<std::size_t>(blocks), 0);
+  std::array<int, 256> histogram{};
+  const int saturated_from = static_cast<int>(std::ceil(saturated_level * kFullScale));
+  int saturated = 0, total = 0;
+  for (int y = row_begin; y < row_end; y += 2) {
+    const std::uint8_t* p = strip.ptr<std::uint8_t>(y);
+    for (int b = 0; b < blocks; ++b) {
+      const int x0 = b * block, x1 = x0 + block;
+      int s = 0, g = 0, sat = 0;
+      for (int x = x0; x < x1; ++x) {
+        s += p[x];
+        sat += p[x] >= saturated_from;
+        ++histogram[p[x]];
+        if (x + 1 < strip.cols) {
+          const int d = int(p[x + 1]) - int(p[x]);
+          g += d * d;
+        }
+      }
+      sum[static_cast<std::size_t>(b)] += s;
+      grad2[static_cast<std::size_t>(b)] += g;
+      count[static_cast<std::size_t>(b)] += block;
+      saturated += sat;
+      total += block;
+    }
+  }
+  StripStats out;
+  out.saturated = total > 0 ? double(saturated) / total : 0.0;
+  int seen = 0;
+  for (int v = 0; v < 256; ++v) {
+    seen += histogram[static_cast<std::size_t>(v)];
+    if (2 * seen >= total) {
+      out.median = v;
+      break;
+    }
+  }
+  return out;
+}
+
+double median_of(std::vector<float>& values) {
+  if (values.empty()) return kNaN;
+  const auto mid = values.begin() + static_cast<long>(values.size() / 2);
+  std::nth_element(values.begin(), mid, values.end());
+  return *mid;
+}
+
+// Median valid disparity of columns [x0, x1) of the measured rows (every fourth row); NaN if none.
+double median_disparity(const cv::Mat& disparity, int row_begin, int row_end, int x0, int x1,
+                        std::vector<float>& values) {
+  values.clear();
+  for (int y = row_begin; y < row_end; y += 4) {
+    const float* d = disparity.ptr<float>(y);
+    for (int x = std::max(0, x0); x < std::min(disparity.cols, x1); ++x) {
+      if (std::isfinite(d[x])) values.push_back(d[x]);
+    }
+  }
+  return median_of(values);
+}
+
+// Vertical offsets (px, right row - left row) of the right strip's features in the blocks that
+// correlate. A turned camera moves rows by different amounts across the strip (a roll changes sign at
+// the principal point), so the largest offset is reported and the count beyond the limit kept. An
+// offset at the end of the search range is reported there (a lower bound of the real one).
+struct VerticalOffsets {
+  double largest = kNaN;  // signed offset of largest magnitude; NaN when no block correlates
+  int found = 0;
+  int beyond = 0;  // blocks whose |offset| exceeds max_vertical_disparity_px
+};
+
+VerticalOffsets vertical_disparity(const cv::Mat& left, const cv::Mat& right, const cv::Mat& disparity, int row_begin,
+                                   int row_end, double strip_disparity, DisparityBand band, const ConditionConfig& c,
+                                   FrameCheckScratch& s) {
+  const int search = std::min(c.vertical_search_px, left.rows / 4);
+  const int width = c.vertical_block_px;
+  // Nothing matched (a calibration far off loses every match): search the whole band.
+  const bool known = std::isfinite(strip_disparity);
+  const int slack = known ? 2 : band.num_disparities / 2 + 2;
+  if (!known) strip_disparity = band.min_disparity + 0.5 * band.num_disparities;
+  VerticalOffsets out;
+  if (search < 1 || left.rows - 2 * search < 4) return out;
+  const int blocks = c.vertical_blocks;
+  for (int k = 0; k < blocks; ++k) {
+    // Blocks spread over the middle of the strip, where the right camera sees the same ground.
+    const int x0 = static_cast<int>((0.2 + 0.6 * (k + 0.5) / blocks) * left.cols) - width / 2;
+    double d = known ? median_disparity(disparity, row_begin, row_end, x0, x0 + width, s.values) : kNaN;
+    if (!std::isfinite(d)) d = strip_disparity;
+    const int rx0 = x0 - static_cast<int>(std::lround(d)) - slack;
+    if (x0 < 0 || x0 + width > left.cols || rx0 < 0 || rx0 + width + 2 * slack > right.cols) continue;
+    const cv::Mat templ = left(cv::Rect(x0, search, width, left.rows - 2 * search));
+    // A flat block correlates equally well everywhere (a covered lens, a featureless scene).
+    cv::Scalar mean, deviation;
+    cv::meanStdDev(templ, mean, deviation);
+    if (deviation[0] < c.min_texture) continue;
+    const cv::Mat area = right(cv::Rect(rx0, 0, width + 2 * slack, right.rows));
+    cv::matchTemplate(area, templ, s.result, cv::TM_CCOEFF_NORMED);
+    cv::Point best;
+    double peak = 0.0;
+    cv::minMaxLoc(s.result, nullptr, &peak, nullptr, &best);
+    if (!(peak >= c.min_vertical_correlation)) continue;
+    double dy = best.y;
+    if (best.y > 0 && best.y + 1 < s.result.rows) {
+      const float a = s.result.at<float>(best.y - 1, best.x), b = s.result.at<float>(best.y, best.x),
+                  e = s.result.at<float>(best.y + 1, best.x);
+      const double den = a - 2.0 * b + e;
+      if (den < 0.0) dy += 0.5 * (a - e) / den;
+    }
+    const double offset = dy - search;
+    ++out.found;
+    out.beyond += std::abs(offset) > c.max_vertical_disparity_px;
+    if (!(std::abs(offset) <= std::abs(out.largest))) out.largest = offset;
+  }
+  return out;
+}
+
+// Longest run (px) of blocks inside columns [u0, u1] where the surface was not seen: flat in both
+// cameras (texture below `threshold`) and unmatched (under half of the sampled pixels have a disparity).
+// `shift` maps a left block to the right block seeing the same ground. A dark but textured surface (a
+// rut wall in shadow) may be as flat by this threshold, but DIC matches it: it is seen, and not counted.
+double unseen_flat_run_px(const FrameCheckScratch& s, int block, double u0, double u1, int shift, double threshold) {
+  const auto& tl = s.texture[0];
+  const auto& tr = s.texture[1];
+  const int blocks = static_cast<int>(tl.size());
+  int run = 0, longest = 0;
+  for (int b = 0; b < blocks; ++b) {
+    const double x0 = b * block, x1 = x0 + block;
+    const int rb = b - shift;
+    const auto k = static_cast<std::size_t>(b);
+    const bool inside = x0 >= u0 && x1 <= u1 && rb >= 0 && rb < blocks;
+    const bool flat =
+        inside && tl[k] < threshold && tr[static_cast<std::size_t>(rb)] < threshold && 2 * s.matched[k] < s.sampled[k];
+    run = flat ? run + 1 : 0;
+    longest = std::max(longest, run);
+  }
+  return double(longest) * block;
+}
+
+bool depth_found(RutStatus status) {
+  return status == RutStatus::Ok || status == RutStatus::Uncertain || status == RutStatus::Vegetation;
+}
+
+}  // namespace
+
+void validate(const ConditionConfig& c) {
+  require(c.block_px >= 4 && c.block_px <= 256, "block_px", "must be within [4, 256]");
+  require(c.obstruction_ratio > 0 && c.obstruction_ratio < 1, "obstruction_ratio", "must be within (0, 1)");
+  require(c.min_texture >= 0, "min_texture", "must be >= 0");
+  require(c.obstruction_min_fraction > 0 && c.obstruction_min_fraction <= 1, "obstruction_min_fraction",
+          "must be within (0, 1]");
+  require(c.low_light_level >= 0 && c.low_light_level < 1, "low_light_level", "must be within [0, 1)");
+  require(c.saturated_level > 0 && c.saturated_level <= 1, "saturated_level", "must be within (0, 1]");
+  require(c.overexposed_fraction > 0 && c.overexposed_fraction <= 1, "overexposed_fraction", "must be within (0, 1]");
+  require(c.flat_ratio > 0 && c.flat_ratio < 1, "flat_ratio", "must be within (0, 1)");
+  require(c.flat_min_width_mm > 0, "flat_min_width_mm", "must be > 0");
+  require(c.flat_min_unseen_mm >= 0, "flat_min_unseen_mm", "must be >= 0");
+  require(c.max_vertical_disparity_px > 0, "max_vertical_disparity_px", "must be > 0");
+  require(c.vertical_search_px >= 1 && c.vertical_search_px <= 32, "vertical_search_px", "must be within [1, 32]");
+  require(c.vertical_blocks >= 1 && c.vertical_blocks <= 16, "vertical_blocks", "must be within [1, 16]");
+  require(c.vertical_block_px >= 8 && c.vertical_block_px <= 256, "vertical_block_px", "must be within [8, 256]");
+  require(c.min_vertical_correlation > 0 && c.min_vertical_correlation < 1, "min_vertical_correlation",
+          "must be within (0, 1)");
+  require(c.vegetation_unmatched_share > 0 && c.vegetation_unmatched_share <= 1, "vegetation_unmatched_share",
+          "must be within (0, 1]");
+  require(c.vegetation_min_blocks >= 1, "vegetation_min_blocks", "must be >= 1");
+}
+
+void check_frame(const cv::Mat& left, const cv::Mat& right, const cv::Mat& disparity, int row_begin, int row_end,
+                 const StereoGeometry& geometry, const RutGeometry& rut, DisparityBand band, const ConditionConfig& c,
+                 FrameCheckScratch& s, RutMeasurement& m) noexcept {
+  if (!c.enabled || left.empty() || left.size() != right.size() || left.type() != CV_8UC1 || right.type() != CV_8UC1 ||
+      row_end <= row_begin || left.cols < 2 * c.block_px)
+    return;
+  try {
+    const cv::Mat* strips[2] = {&left, &right};
+    StripStats stats[2];
+    for (int k = 0; k < 2; ++k) {
+      stats[k] =
+          block_stats(*strips[k], row_begin, row_end, c.block_px, c.saturated_level, s.sum[k], s.grad2[k], s.count[k]);
+      const std::size_t blocks = s.sum[k].size();
+      s.texture[k].resize(blocks);
+      s.brightness[k].resize(blocks);
+      for (std::size_t b = 0; b < blocks; ++b) {
+        const double n = std::max(1, s.count[k][b]);
+        s.texture[k][b] = std::sqrt(s.grad2[k][b] / n);
+        s.brightness[k][b] = s.sum[k][b] / n;
+      }
+    }
+
+    // Exposure.
+    const int median = std::max(stats[0].median, stats[1].median);
+    if (median < c.low_light_level * kFullScale) m.conditions |= kConditionLowLight;
+    if (std::max(stats[0].saturated, stats[1].saturated) > c.overexposed_fraction)
+      m.conditions |= kConditionOverexposed;
+
+    // Obstruction: each left block against the right block that sees the same ground.
+    const double strip_disparity = median_disparity(disparity, row_begin, row_end, 0, disparity.cols, s.values);
+    const double d0 = std::isfinite(strip_disparity)     ? strip_disparity
+                      : rut.has_line && rut.line_c > 0.0 ? geometry.disparity_at(rut.line_c)
+                                                         : kNaN;
+    const int shift = std::isfinite(d0) ? static_cast<int>(std::lround(d0 / c.block_px)) : 0;
+    const int blocks = static_cast<int>(s.texture[0].size());
+    int compared = 0, left_blocked = 0, right_blocked = 0;
+    for (int b = 0; b < blocks; ++b) {
+      const int rb = b - shift;
+      if (rb < 0 || rb >= blocks) continue;
+      ++compared;
+      const double tl = s.texture[0][static_cast<std::size_t>(b)], tr = s.texture[1][static_cast<std::size_t>(rb)];
+      const double bl = s.brightness[0][static_cast<std::size_t>(b)],
+                   br = s.brightness[1][static_cast<std::size_t>(rb)];
+      // The texture test only for the dimmer view: the other camera's own blob edge (a steep dark-to-lit
+      // step inside its block) must not make this camera's ground look flat by comparison.
+      const auto blocked = [&](double t_self, double t_other, double b_self, double b_other) {
+        return b_self < c.obstruction_ratio * b_other ||
+               (b_self <= b_other && t_other >= c.min_texture && t_self < c.obstruction_ratio * t_other);
+      };
+      left_blocked += blocked(tl, tr, bl, br);
+      right_blocked += blocked(tr, tl, br, bl);
+    }
+    if (compared > 0) {
+      m.obstructed_left = double(left_blocked) / compared;
+      m.obstructed_right = double(right_blocked) / compared;
+    }
+    // A camera that sees no texture anywhere while the other does is covered whole.
+    const auto flat_everywhere = [&](int k) {
+      int flat = 0;
+      for (double t : s.texture[static_cast<std::size_t>(k)]) flat += t < c.min_texture;
+      return flat >= 0.9 * double(s.texture[static_cast<std::size_t>(k)].size());
+    };
+    if (flat_everywhere(0) && !flat_everywhere(1)) m.obstructed_left = 1.0;
+    if (flat_everywhere(1) && !flat_everywhere(0)) m.obstructed_right = 1.0;
+    if (m.obstructed_left >= c.obstruction_min_fraction) m.conditions |= kConditionLeftObstructed;
+    if (m.obstructed_right >= c.obstruction_min_fraction) m.conditions |= kConditionRightObstructed;
+
+    // The rut opening's columns in the left strip, where extract_rut found one (else an empty range).
+    const bool has_opening = rut.has_rut && rut.has_line;
+    const cv::Matx44d& q = geometry.Q();
+    const double f = geometry.focal_px(), cx = -q(0, 3);
+    const auto column = [&](double x) { return cx + f * x / (rut.line_m * x + rut.line_c); };
+    const double u0 = has_opening ? column(rut.left_x_mm) : 0.0, u1 = has_opening ? column(rut.right_x_mm) : -1.0;
+
+    // Vegetation: textured in both cameras, yet unmatched; judged outside the rut opening, where the
+    // tyre has not flattened it (inside, DIC also loses steep rut walls, foreshortened differently in
+    // the two views, which would pass for blades on a ground with few textured blocks, as snow).
+    s.matched.assign(static_cast<std::size_t>(blocks), 0);
+    s.sampled.assign(static_cast<std::size_t>(blocks), 0);
+    for (int y = row_begin; y < row_end; y += 4) {
+      const float* d = disparity.ptr<float>(y);
+      for (int x = 0; x < blocks * c.block_px; ++x) {
+        s.matched[static_cast<std::size_t>(x / c.block_px)] += std::isfinite(d[x]) ? 1 : 0;
+        s.sampled[static_cast<std::size_t>(x / c.block_px)] += 1;
+      }
+    }
+    int textured = 0, unmatched = 0;
+    for (int b = 0; b < blocks; ++b) {
+      const int rb = b - shift;
+      if (rb < 0 || rb >= blocks || ((b + 1) * c.block_px > u0 && b * c.block_px < u1)) continue;
+      if (s.texture[0][static_cast<std::size_t>(b)] < c.min_texture ||
+          s.texture[1][static_cast<std::size_t>(rb)] < c.min_texture)
+        continue;
+      ++textured;
+      unmatched += 2 * s.matched[static_cast<std::size_t>(b)] < s.sampled[static_cast<std::size_t>(b)];
+    }
+    if (unmatched >= c.vegetation_min_blocks && unmatched > c.vegetation_unmatched_share * textured)
+      m.conditions |= kConditionVegetation;
+
+    // Calibration.
+    // Drift when at least a third of the correlating blocks (at least one) are beyond the limit: one
+    // block's chance match cannot raise it, a roll that moves only the strip's ends can.
+    const VerticalOffsets v = vertical_disparity(left, right, disparity, row_begin, row_end, d0, band, c, s);
+    m.vertical_disparity_px = v.largest;
+    if (v.found > 0 && 3 * v.beyond >= v.found) m.conditions |= kConditionCalibrationDrift;
+
+    // Water / flat patch inside the rut opening, against the texture of the ground outside it.
+    if (has_opening) {
+      s.values.clear();
+      for (int b = 0; b < blocks; ++b) {
+        const double x0 = b * c.block_px, x1 = x0 + c.block_px;
+        if (x1 < u0 || x0 > u1) s.values.push_back(static_cast<float>(s.texture[0][static_cast<std::size_t>(b)]));
+      }
+      const double ground = median_of(s.values);
+      const double z = rut.line_m * 0.5 * (rut.left_x_mm + rut.right_x_mm) + rut.line_c;
+      if (std::isfinite(ground) && z > 0) {
+        const double run_mm = unseen_flat_run_px(s, c.block_px, u0, u1, shift, c.flat_ratio * ground) * z / f;
+        // The patch hides the bottom only where the profile's walls still descend into it; flanked by
+        // bottom seen level on both sides (a smooth patch of mud, tread marks), the bottom is measured.
+        if (run_mm >= c.flat_min_width_mm && rut.unseen_depth_mm > c.flat_min_unseen_mm)
+          m.conditions |= kConditionWater;
+      }
+    }
+  } catch (...) {
+    return;  // an OpenCV error on odd input: the checks report nothing for this frame
+  }
+
+  // The status: the image conditions explain any failure; water only refuses a found depth (or a
+  // shallow one: the lid of a pool is no rut); vegetation any status but a rut at the edge of the view.
+  if (m.status == RutStatus::NoMeasurement) return;
+  // Exposure first: a dark or clipped strip also looks flat and unmatched.
+  if (m.conditions & (kConditionLowLight | kConditionOverexposed)) {
+    m.status = RutStatus::BadExposure;
+  } else if (m.conditions & (kConditionLeftObstructed | kConditionRightObstructed)) {
+    m.status = RutStatus::LensObstructed;
+  } else if (m.conditions & kConditionCalibrationDrift) {
+    m.status = RutStatus::CalibrationDrift;
+  } else if ((m.conditions & kConditionWater) && (depth_found(m.status) || m.status == RutStatus::NoRut)) {
+    m.status = RutStatus::BottomNotSeen;
+  } else if ((m.conditions & kConditionVegetation) && m.status != RutStatus::RutAtEdge) {
+    m.status = RutStatus::Vegetation;
+  }
+}
+
+}  // namespace rutd

@@ -1,0 +1,109 @@
+#pragma once
+// Per-frame checks of the conditions under which stereo gives a wrong depth (README, "Conditions rutd
+// flags"): a lens obstructed, low light or overexposure, a calibration that no longer fits, standing
+// water or another flat textureless patch in the rut. They look at the rectified strips the match stage
+// used and at where extract_rut found the rut, set RutMeasurement's condition bits, figures and, when a
+// depth would otherwise be published, the status that refuses it. Vegetation and the depth uncertainty
+// are judged on the cross-section itself (rut/extract.hpp).
+//
+// Cost: one pass over every second measured row of both strips (sums per column block and a histogram)
+// and five small template matches for the vertical disparity; no allocation once the scratch has grown
+// to the strip width. Not thread-safe per scratch: one per frame slot.
+#include <cstdint>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "pipeline/disparity.hpp"
+#include "pipeline/stereo_geometry.hpp"
+#include "rut/extract.hpp"
+#include "rut/rut_measurement.hpp"
+
+namespace rutd {
+
+struct ConditionConfig {
+  bool enabled = true;
+  // Column blocks (px of the rectified strip) in which the two cameras' views of the same ground are
+  // compared. A block's texture is its RMS horizontal intensity gradient, grey levels per pixel (8-bit).
+  int block_px = 16;
+  // Lens obstruction. A camera is obstructed in a block when, looking at the same ground as the other
+  // camera (shifted by the strip's median disparity), it sees less than obstruction_ratio of the other's
+  // mean brightness (an opaque blob is dark: it is lit from behind the lens), or less than
+  // obstruction_ratio of its texture while it is not the brighter one and the other sees at least
+  // min_texture (a blob is out of focus: flat; the edge of a blob in the other camera is a steep step,
+  // not texture this camera misses). Flagged when at least obstruction_min_fraction of the compared blocks are
+  // obstructed.
+  double obstruction_ratio = 0.4;
+  double min_texture = 3.0;  // about 2x the gradient that read noise alone gives (1.5 grey levels: 2.1)
+  double obstruction_min_fraction = 0.05;
+  // Exposure, over both strips: low light when the median grey level is below low_light_level of full
+  // scale (the texture is then a few grey levels, drowned by read and quantisation noise); overexposed
+  // when more than overexposed_fraction of the pixels are at or above saturated_level of full scale
+  // (clipped pixels carry no texture, and a clipped window biases DIC).
+  double low_light_level = 0.06;
+  double saturated_level = 0.98;
+  double overexposed_fraction = 0.15;
+  // Standing water or a flat textureless patch in the rut: a run of blocks inside the rut opening where
+  // the bottom is not seen, at least flat_min_width_mm wide on the ground: both cameras see less than
+  // flat_ratio of the texture of the ground outside the rut, and DIC matched under half of the block.
+  // Still water reflects a smooth sky and has no texture of its own, so nothing on it matches (its
+  // texture is the cameras' read noise); soil, snow and mud match wherever both cameras see them, even
+  // in shadow, where their texture drops with the light (a shadowed sand wall: 0.3 of the ground's).
+  // The texture test keeps a rough unmatched surface (vegetation, which keeps most of the ground's
+  // texture) out; it must pass snow's water, whose ground has little more texture than noise (still
+  // water in snow: 0.34 of the ground's).
+  // ... and only where the bottom is hidden: the profile's walls still descend into the unmatched part
+  // of the rut, so that it could be deeper than measured by more than flat_min_unseen_mm
+  // (RutGeometry::unseen_depth_mm; the 1 mm tolerance). A smooth patch of mud or tread marks in the
+  // bottom, flanked by bottom seen level on both sides, hides nothing.
+  double flat_ratio = 0.5;
+  double flat_min_width_mm = 8.0;
+  double flat_min_unseen_mm = 1.0;
+  // Calibration: the vertical offset of the right strip's features against the left's, measured by
+  // normalised cross-correlation of vertical_blocks blocks spread over the middle 60 % of the strip,
+  // over +-vertical_search_px rows (sub-pixel by a parabola). Rectification leaves a few hundredths of
+  // a pixel with a calibration that fits; DIC windows do not follow a vertical offset, so one above
+  // max_vertical_disparity_px both loses matches and biases the disparity of oblique texture. Drift is
+  // flagged when at least a third of the correlating blocks exceed it (a roll moves the strip's ends
+  // in opposite directions); RutMeasurement::vertical_disparity_px is the largest offset.
+  double max_vertical_disparity_px = 0.7;
+  int vertical_search_px = 8;
+  int vertical_blocks = 5;
+  int vertical_block_px = 24;
+  double min_vertical_correlation = 0.6;  // a block whose best correlation is lower is not used
+  // Vegetation: blades standing above the soil are seen by both cameras (texture in both) but do not
+  // match as one surface (each camera sees other blades in front of other soil), so DIC refuses them.
+  // Soil, snow and mud match wherever both cameras see texture. Flagged when more than
+  // vegetation_unmatched_share of the blocks with texture in both cameras have under half of their
+  // pixels matched, and at least vegetation_min_blocks do: one or two unmatched blocks are a pile's
+  // steep flank or a window that did not converge, and on a ground with few textured blocks (snow) they
+  // alone would make the share. Only blocks outside the rut opening count (the tyre flattened the rut).
+  // (A cross-section rough at scales soil is not also flags it: RutConfig.)
+  double vegetation_unmatched_share = 0.2;
+  int vegetation_min_blocks = 3;
+};
+
+// Throws std::invalid_argument naming the field when `config` is unusable.
+void validate(const ConditionConfig& config);
+
+// Reused between frames; contents unspecified.
+struct FrameCheckScratch {
+  std::vector<double> sum[2], grad2[2];
+  std::vector<int> count[2];
+  std::vector<double> texture[2], brightness[2];
+  std::vector<int> matched, sampled;
+  std::vector<float> values;
+  cv::Mat result;
+};
+
+// strips: the rectified CV_8UC1 strips the match stage used (StereoGeometry::roi() rows); disparity:
+// their refined disparity (CV_32FC1, NaN invalid); rows [row_begin, row_end) are the measured strip.
+// rut: extract_rut's geometry of this frame. Updates m (conditions, vertical_disparity_px,
+// obstructed_left/right, status). Never throws.
+// band: the disparity band the frame was matched in (where to look for the right strip's features
+// when no disparity was found).
+void check_frame(const cv::Mat& left_strip, const cv::Mat& right_strip, const cv::Mat& disparity, int row_begin,
+                 int row_end, const StereoGeometry& geometry, const RutGeometry& rut, DisparityBand band,
+                 const ConditionConfig& config, FrameCheckScratch& scratch, RutMeasurement& m) noexcept;
+
+}  // namespace rutd

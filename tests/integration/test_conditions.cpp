@@ -1,0 +1,149 @@
+// Conditions that defeat stereo, end to end as a user meets them: `rutd synth` renders the condition
+// (README, "Conditions rutd flags"), `rutd replay` measures it and writes the CAN frames, and
+// canmatrix decodes them with config/rutd.dbc (tests/can/decode_candump.py). The renderer's truth is the
+// soil's: no frame may be published OK with a depth more than 1 mm from it, and the condition must be
+// flagged on the frames (the share each case states), in the RutConditions frame.
+#include <cmath>
+#include <cstdio>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "decoded_candump.hpp"
+#include "synthetic/truth_csv.hpp"
+#include "test_support.hpp"
+
+namespace rutd {
+namespace {
+
+struct Case {
+  const char* name;
+  const char* synth;  // rutd synth options besides the folder and --frames
+  int frames;
+  const char* flag;        // RutConditions signal that must be raised
+  double min_flagged;      // share of frames on which it must be
+  bool flag_when_refused;  // ... and on every frame not published OK
+};
+
+std::ostream& operator<<(std::ostream& os, const Case& c) { return os << c.name; }
+
+struct Outcome {
+  int frames = 0, ok = 0, flagged = 0;
+  double worst_ok_error = 0.0;
+};
+
+Outcome run_case(const Case& c) {
+  Outcome out;
+  const test::TempDir tmp;
+  const std::string rec = (tmp.path() / "rec").string();
+  const auto log = tmp.path() / "can.log";
+  EXPECT_EQ(test::run_rutd("synth " + rec + " --frames " + std::to_string(c.frames) + " " + c.synth), 0);
+  EXPECT_EQ(
+      test::run_rutd("replay " + rec + " --out " + (tmp.path() / "m.csv").string() + " --candump " + log.string()), 0);
+  bool decoded_ok = false;
+  const auto all = test::decode_candump(log, decoded_ok);
+  EXPECT_TRUE(decoded_ok) << "decoder reported CRC, counter or format errors";
+  const auto m1 = test::frames_of(all, "RutMeasurement1");
+  const auto cond = test::frames_of(all, "RutConditions");
+  const auto truth = read_truth_csv(rec + "/truth.csv");
+  EXPECT_EQ(m1.size(), truth.size());
+  EXPECT_EQ(cond.size(), truth.size());
+  const std::size_t n = std::min({m1.size(), cond.size(), truth.size()});
+  for (std::size_t i = 0; i < n; ++i) {
+    ++out.frames;
+    const bool ok = m1[i].phys.at("RutM1_Status") == 0;
+    const bool flagged = cond[i].phys.at(c.flag) == 1;
+    out.flagged += flagged;
+    std::printf("%-26s frame %zu  status %-18s  depth %6.1f  truth %6.2f  flags %s%s%s%s%s%s%s%s  u %.2f  vd %.2f\n",
+                c.name, i, m1[i].named.at("RutM1_Status").c_str(), m1[i].phys.at("RutDepth"), truth[i].depth_mm,
+                cond[i].phys.at("Water") == 1 ? "W" : "-", cond[i].phys.at("LeftLensObstructed") == 1 ? "L" : "-",
+                cond[i].phys.at("RightLensObstructed") == 1 ? "R" : "-", cond[i].phys.at("LowLight") == 1 ? "D" : "-",
+                cond[i].phys.at("Overexposed") == 1 ? "O" : "-", cond[i].phys.at("Vegetation") == 1 ? "V" : "-",
+                cond[i].phys.at("CalibrationDrift") == 1 ? "C" : "-",
+                cond[i].phys.at("DepthUncertain") == 1 ? "U" : "-", cond[i].phys.at("DepthUncertainty"),
+                cond[i].phys.at("VerticalDisparity"));
+    if (ok) {
+      ++out.ok;
+      const double err = std::abs(m1[i].phys.at("RutDepth") - truth[i].depth_mm);
+      out.worst_ok_error = std::max(out.worst_ok_error, err);
+      EXPECT_LE(err, 1.0 + 0.05) << c.name << " frame " << i << ": published OK, depth off the soil";
+    } else if (c.flag_when_refused) {
+      EXPECT_TRUE(flagged) << c.name << " frame " << i << ": refused without " << c.flag;
+    }
+  }
+  return out;
+}
+
+class Conditions : public ::testing::TestWithParam<Case> {};
+
+TEST_P(Conditions, NeverOkOffTheSoilAndFlagged) {
+  if (!test::have_canmatrix()) GTEST_SKIP() << "needs /usr/bin/python3 with canmatrix (python3-canmatrix)";
+  const Case& c = GetParam();
+  const Outcome o = run_case(c);
+  ASSERT_EQ(o.frames, c.frames);
+  const double share = double(o.flagged) / o.frames;
+  std::printf("TABLE %-26s frames %d  OK %d  worst OK error %.2f mm  %s on %d/%d\n", c.name, o.frames, o.ok,
+              o.worst_ok_error, c.flag, o.flagged, o.frames);
+  EXPECT_GE(share, c.min_flagged) << c.flag << " raised on " << o.flagged << " of " << o.frames << " frames";
+}
+
+// Water 5-25 mm deep in 30-60 mm ruts, sand and snow, level, roll, rig and seed varied.
+const Case kCases[] = {
+    {"water_d30_l5_sand", "--depth 30 --water-level 5 --texture sand --seed 31", 8, "Water", 0.9, false},
+    {"water_d40_l12_snow_r3", "--depth 40 --water-level 12 --texture snow --roll 3 --seed 32", 8, "Water", 0.9, false},
+    {"water_d50_l15_sand_b80", "--depth 50 --water-level 15 --texture sand --baseline 80 --height 300 --seed 33", 8,
+     "Water", 0.9, false},
+    {"water_d60_l25_snow", "--depth 60 --water-level 25 --texture snow --seed 34", 8, "Water", 0.9, false},
+    {"water_d45_l20_sand_r3",
+     "--depth 45 --water-level 20 --texture sand --roll 3 --baseline 40 --height 400 --seed 35", 8, "Water", 0.9,
+     false},
+    {"water_d35_l8_snow_b80", "--depth 35 --water-level 8 --texture snow --baseline 80 --height 300 --seed 36", 8,
+     "Water", 0.9, false},
+    // ... and in mud off the rig's centre, a narrow snow rut, a dim sand scene (a shore's edge that bends
+    // up, a pool filling most of the bottom, less texture everywhere).
+    {"water_d50_l20_mud_off30", "--depth 50 --water-level 20 --texture mud --offset 30 --seed 109", 6, "Water", 0.9,
+     false},
+    {"water_d50_l10_snow_w140", "--depth 50 --water-level 10 --texture snow --width 140 --bottom-width 50 --seed 104",
+     6, "Water", 0.9, false},
+    {"water_d45_l15_sand_dim", "--depth 45 --water-level 15 --exposure 0.4 --seed 105", 6, "Water", 0.9, false},
+    // Opaque splash on one lens, 10-50 % of the strip, and a fully covered lens.
+    {"splash10_left_sand", "--depth 50 --splash 0.1 --splash-camera left --splash-centre 0.45 --seed 41", 6,
+     "LeftLensObstructed", 0.0, true},
+    {"splash25_right_snow",
+     "--depth 40 --texture snow --splash 0.25 --splash-camera right --splash-centre 0.6 --seed 42", 6,
+     "RightLensObstructed", 0.0, true},
+    {"splash50_left_snow", "--depth 60 --texture snow --splash 0.5 --splash-camera left --splash-centre 0.5 --seed 43",
+     6, "LeftLensObstructed", 0.0, true},
+    {"splash35_right_sand_r3", "--depth 30 --roll 3 --splash 0.35 --splash-camera right --splash-centre 0.3 --seed 44",
+     6, "RightLensObstructed", 0.0, true},
+    {"covered_left_sand", "--depth 50 --splash 1 --splash-camera left --seed 45", 4, "LeftLensObstructed", 1.0, true},
+    {"covered_right_snow", "--depth 40 --texture snow --splash 1 --splash-camera right --seed 46", 4,
+     "RightLensObstructed", 1.0, true},
+    // Exposure.
+    {"dark_sand", "--depth 50 --exposure 0.05 --seed 51", 4, "LowLight", 1.0, true},
+    {"dark_snow", "--depth 40 --texture snow --exposure 0.04 --seed 52", 4, "LowLight", 1.0, true},
+    {"overexposed_sand", "--depth 50 --exposure 4 --seed 53", 4, "Overexposed", 1.0, true},
+    {"overexposed_snow", "--depth 30 --texture snow --exposure 2.5 --seed 54", 4, "Overexposed", 1.0, true},
+    // Grass blades outside the rut.
+    {"grass40_sand", "--depth 50 --grass-height 40 --seed 61", 4, "Vegetation", 0.75, false},
+    {"grass25_mud", "--depth 40 --texture mud --grass-height 25 --grass-spacing 5 --seed 62", 4, "Vegetation", 0.75,
+     false},
+    // The right camera turned against the written calibration.
+    {"pitch1_sand", "--depth 50 --right-pitch-error 1 --seed 71", 4, "CalibrationDrift", 1.0, true},
+    {"pitch-0.4_snow", "--depth 40 --texture snow --right-pitch-error -0.4 --seed 72", 4, "CalibrationDrift", 1.0,
+     true},
+    {"roll2_sand", "--depth 45 --right-roll-error 2 --right-pitch-error 0.3 --seed 73", 4, "CalibrationDrift", 1.0,
+     true},
+};
+
+INSTANTIATE_TEST_SUITE_P(Scenes, Conditions, ::testing::ValuesIn(kCases), [](const auto& info) {
+  std::string name = info.param.name;
+  for (char& ch : name) {
+    if (!std::isalnum(static_cast<unsigned char>(ch))) ch = '_';
+  }
+  return name;
+});
+
+}  // namespace
+}  // namespace rutd

@@ -1,0 +1,136 @@
+// The status frame's health bits, end to end through `rutd run` as a vehicle sees them: the candump log
+// the daemon writes is decoded with config/rutd.dbc by canmatrix (tests/can/decode_candump.py). Each
+// test makes the condition happen to the daemon (a silent source, a pipeline slower than the frames'
+// age limit, a featureless or a half-blind scene) and reads the bit off the decoded frames. BusOff and
+// CanTxDrops come from the CAN sink's bus: tests/can/test_can_sink_status.cpp.
+#include <cmath>
+#include <fstream>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "decoded_candump.hpp"
+#include "recording/recording.hpp"
+#include "synthetic/synthetic_renderer.hpp"
+#include "test_support.hpp"
+
+namespace rutd {
+namespace {
+
+std::vector<test::DecodedFrame> run_and_decode(const std::string& args, const test::TempDir& tmp) {
+  const auto log = tmp.path() / "can.log";
+  EXPECT_EQ(test::run_rutd("run " + args + " --candump " + log.string()), 0);
+  bool ok = false;
+  auto frames = test::decode_candump(log, ok);
+  EXPECT_TRUE(ok) << "decoder reported CRC, counter or format errors";
+  return frames;
+}
+
+// A recording of `count` pairs 1/30 s apart: the renderer's calibration, the left image from `left`
+// (empty: rendered), the right image from `right` (empty: rendered).
+void write_recording(const std::string& dir, int count, const cv::Mat& left, const cv::Mat& right) {
+  const SyntheticRenderer renderer(SynthConfig{});
+  RecordingWriter writer(dir, renderer.calibration());
+  StereoFrame frame;
+  for (int i = 0; i < count; ++i) {
+    renderer.render(static_cast<std::uint64_t>(i), frame);
+    if (!left.empty()) left.copyTo(frame.left);
+    if (!right.empty()) right.copyTo(frame.right);
+    frame.t_ns = static_cast<std::int64_t>(i) * 33'333'333;
+    ASSERT_TRUE(writer.append(frame)) << writer.error();
+  }
+}
+
+TEST(StatusBits, NoCameraRaisedWhileThePairsStopAndClearedWhenTheyResume) {
+  if (!test::have_canmatrix()) GTEST_SKIP() << "needs /usr/bin/python3 with canmatrix (python3-canmatrix)";
+  const test::TempDir tmp;
+  const std::string rec = (tmp.path() / "rec").string();
+  // Pairs 2.5 s apart, replayed at their own pace: the source is silent for longer than the 1 s after
+  // which no_camera is raised, then delivers again.
+  ASSERT_EQ(test::run_rutd("synth " + rec + " --frames 3 --fps 0.4 --seed 3"), 0);
+  const auto frames = run_and_decode("--replay " + rec + " --frames 3", tmp);
+  int measurements = 0, raised_after = -1, cleared_after = -1;
+  for (const auto& f : frames) {
+    if (f.message == "RutMeasurement1") ++measurements;
+    if (f.message != "RutSensorStatus") continue;
+    const bool no_camera = f.phys.at("NoCamera") == 1;
+    if (no_camera && measurements >= 1 && raised_after < 0) raised_after = measurements;
+    if (!no_camera && raised_after >= 0 && measurements > raised_after && cleared_after < 0)
+      cleared_after = measurements;
+  }
+  EXPECT_GE(measurements, 2);
+  EXPECT_GE(raised_after, 1) << "NoCamera never raised while the source was silent";
+  EXPECT_GT(cleared_after, raised_after) << "NoCamera not cleared once pairs came again";
+}
+
+TEST(StatusBits, StaleFramesRaisedWhenMeasuringIsSlowerThanTheAgeLimit) {
+  if (!test::have_canmatrix()) GTEST_SKIP() << "needs /usr/bin/python3 with canmatrix (python3-canmatrix)";
+  const test::TempDir tmp;
+  const std::string rec = (tmp.path() / "rec").string();
+  ASSERT_EQ(test::run_rutd("synth " + rec + " --frames 20 --fps 30 --seed 4"), 0);
+  // Frames older than 1 ms when they reach a stage are refused: matching alone takes longer.
+  const auto config = tmp.path() / "rutd.yaml";
+  std::ofstream(config) << "source:\n  type: replay\n  replay:\n    dir: " << rec
+                        << "\n    paced: true\npipeline:\n  max_frame_age_ms: 1\n";
+  const auto frames = run_and_decode("--config " + config.string(), tmp);
+  int stale = 0, status = 0;
+  for (const auto& f : frames) {
+    if (f.message != "RutSensorStatus") continue;
+    ++status;
+    stale += f.phys.at("StaleFrames") == 1;
+  }
+  EXPECT_GT(status, 0);
+  EXPECT_GT(stale, 0) << "StaleFrames never raised on " << status << " status frames";
+
+  // The same recording within the default limit: never raised.
+  const test::TempDir tmp2;
+  const auto clean = run_and_decode("--replay " + rec + " --frames 20", tmp2);
+  for (const auto& f : clean) {
+    if (f.message == "RutSensorStatus") {
+      EXPECT_EQ(f.phys.at("StaleFrames"), 0);
+    }
+  }
+}
+
+TEST(StatusBits, LowTextureRaisedOnAFeaturelessScene) {
+  if (!test::have_canmatrix()) GTEST_SKIP() << "needs /usr/bin/python3 with canmatrix (python3-canmatrix)";
+  const test::TempDir tmp;
+  const std::string rec = (tmp.path() / "rec").string();
+  const cv::Mat grey(SynthConfig{}.rig.image_size, CV_8UC1, cv::Scalar(128));
+  write_recording(rec, 12, grey, grey);
+  const auto frames = run_and_decode("--replay " + rec + " --frames 12", tmp);
+  int measurements = 0, low_texture = 0;
+  for (const auto& f : frames) {
+    if (f.message == "RutMeasurement1") {
+      ++measurements;
+      EXPECT_EQ(f.named.at("RutM1_Status"), "TOO_FEW_POINTS");
+    }
+    if (f.message == "RutSensorStatus" && measurements > 0) low_texture += f.phys.at("LowTexture") == 1;
+  }
+  // Real-time mode: a pair may be dropped while matching lags (freshest wins), so not all 12 arrive.
+  EXPECT_GE(measurements, 6);
+  EXPECT_GT(low_texture, 0) << "LowTexture never raised";
+}
+
+TEST(StatusBits, ARefusedDepthNamesItsConditionOnTheStatusFrame) {
+  if (!test::have_canmatrix()) GTEST_SKIP() << "needs /usr/bin/python3 with canmatrix (python3-canmatrix)";
+  const test::TempDir tmp;
+  const std::string rec = (tmp.path() / "rec").string();
+  // The left lens covered by something dark and flat; the right camera sees the rut.
+  const cv::Mat dark(SynthConfig{}.rig.image_size, CV_8UC1, cv::Scalar(20));
+  write_recording(rec, 12, dark, cv::Mat());
+  const auto frames = run_and_decode("--replay " + rec + " --frames 12", tmp);
+  int measurements = 0, named = 0, left_flag = 0;
+  for (const auto& f : frames) {
+    if (f.message == "RutMeasurement1") ++measurements;
+    if (f.message == "RutConditions") left_flag += f.phys.at("LeftLensObstructed") == 1;
+    if (f.message == "RutSensorStatus" && measurements > 0) named += f.named.at("RutS_LastStatus") == "LENS_OBSTRUCTED";
+  }
+  EXPECT_GE(measurements, 6);  // real-time mode may drop a pair while matching lags
+  EXPECT_EQ(left_flag, measurements);
+  EXPECT_GT(named, 0) << "the status frame never said LENS_OBSTRUCTED";
+}
+
+}  // namespace
+}  // namespace rutd
