@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdint>
 #include <limits>
 #include <stdexcept>
 #include <string>
@@ -11,6 +12,40 @@
 #include <opencv2/imgproc.hpp>
 
 namespace rutd {
+
+void normalized_correlation(const cv::Mat& area, const cv::Mat& templ, cv::Mat& result) {
+  CV_Assert(area.type() == CV_8UC1 && templ.type() == CV_8UC1);
+  result.create(area.rows - templ.rows + 1, area.cols - templ.cols + 1, CV_32F);
+  const double n = static_cast<double>(templ.rows) * templ.cols;
+  double st = 0.0, stt = 0.0;
+  for (int y = 0; y < templ.rows; ++y) {
+    const std::uint8_t* t = templ.ptr<std::uint8_t>(y);
+    for (int x = 0; x < templ.cols; ++x) {
+      st += t[x];
+      stt += double(t[x]) * t[x];
+    }
+  }
+  const double var_t = stt - st * st / n;
+  for (int dy = 0; dy < result.rows; ++dy) {
+    float* out = result.ptr<float>(dy);
+    for (int dx = 0; dx < result.cols; ++dx) {
+      std::int64_t sp = 0, spp = 0, stp = 0;  // exact: 255^2 * pixels fits many times over
+      for (int y = 0; y < templ.rows; ++y) {
+        const std::uint8_t* t = templ.ptr<std::uint8_t>(y);
+        const std::uint8_t* a = area.ptr<std::uint8_t>(dy + y) + dx;
+        for (int x = 0; x < templ.cols; ++x) {
+          sp += a[x];
+          spp += a[x] * a[x];
+          stp += a[x] * t[x];
+        }
+      }
+      const double var_p = double(spp) - double(sp) * double(sp) / n;
+      const double cov = double(stp) - st * double(sp) / n;
+      out[dx] = var_p > 0.0 && var_t > 0.0 ? static_cast<float>(cov / std::sqrt(var_p * var_t)) : 0.0f;
+    }
+  }
+}
+
 namespace {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
@@ -125,7 +160,7 @@ VerticalOffsets vertical_disparity(const cv::Mat& left, const cv::Mat& right, co
     cv::meanStdDev(templ, mean, deviation);
     if (deviation[0] < c.min_texture) continue;
     const cv::Mat area = right(cv::Rect(rx0, 0, width + 2 * slack, right.rows));
-    cv::matchTemplate(area, templ, s.result, cv::TM_CCOEFF_NORMED);
+    normalized_correlation(area, templ, s.result);
     cv::Point best;
     double peak = 0.0;
     cv::minMaxLoc(s.result, nullptr, &peak, nullptr, &best);

@@ -86,6 +86,13 @@ struct ConditionConfig {
 // Throws std::invalid_argument naming the field when `config` is unusable.
 void validate(const ConditionConfig& config);
 
+// OpenCV's TM_CCOEFF_NORMED of an 8-bit template over an 8-bit area (both CV_8UC1), into `result`
+// ((area.rows - templ.rows + 1) x (area.cols - templ.cols + 1), CV_32F; 0 where the area's patch or the
+// template is flat). The calibration check's correlation: written out because cv::matchTemplate
+// allocates its work buffers on every call and this runs on every frame, at sizes (a few thousand
+// pixels, a few dozen offsets) that need no FFT. `result` keeps its buffer from one call to the next.
+void normalized_correlation(const cv::Mat& area, const cv::Mat& templ, cv::Mat& result);
+
 // Reused between frames; contents unspecified.
 struct FrameCheckScratch {
   std::vector<double> sum[2], grad2[2];
