@@ -138,6 +138,16 @@ gpu::DicParams column_params(const ColumnCase& c) {
   return p;
 }
 
+// The same windows for the CPU DIC and the engine.
+DicConfig column_config(const ColumnCase& c) {
+  DicConfig config;
+  config.column_windows = true;
+  config.column_block_rows = c.block_rows;
+  config.row_begin = c.row_begin;
+  config.row_end = c.row_end;
+  return config;
+}
+
 // Windows refined (a block's first row at each column), and pixels refined outside [row_begin, row_end).
 std::pair<int, int> column_windows_refined(const cv::Mat& d, const gpu::DicParams& p) {
   const gpu::ColumnBlocks blocks(p, d.rows);
@@ -175,11 +185,7 @@ TEST(GpuDic, ReferenceColumnWindowsAreTheCpuColumnWindows) {
     const gpu::DicParams p = column_params(c);
     const cv::Mat gpu_dic = reference_dic(pair, initial, p);
     cv::Mat cpu_dic = initial.clone();
-    DicConfig config;
-    config.column_windows = true;
-    config.column_block_rows = c.block_rows;
-    config.row_begin = c.row_begin;
-    config.row_end = c.row_end;
+    const DicConfig config = column_config(c);
     DicWorkspace ws;
     const DicStats cpu_stats = refine_disparity_dic(pair.left, pair.right, cpu_dic, config, ws);
     const auto [diff, one_side] = compare(gpu_dic, cpu_dic);
@@ -204,11 +210,7 @@ TEST(GpuDic, EngineRefinesColumnWindowsOnTheDeviceAsTheReference) {
   auto engine = make_engine(EngineKind::Gpu);
   for (const ColumnCase& c : kColumnCases) {
     const Pair pair = render_pair(c.d0, c.slope, c.size, c.seed, 0.7, c.slope_y);
-    DicConfig config;
-    config.column_windows = true;
-    config.column_block_rows = c.block_rows;
-    config.row_begin = c.row_begin;
-    config.row_end = c.row_end;
+    const DicConfig config = column_config(c);
     cv::Mat refined;
     DicStats stats;
     if (!engine->compute_refined(pair.left, pair.right, {16, 48}, config, refined, stats))
