@@ -361,8 +361,11 @@ bool AravisCamera::convert(ArvBuffer* buffer, cv::Mat& out, bool cut_short) noex
   std::size_t bytes = 0;
   const void* data = arv_buffer_get_data(buffer, &bytes);
   if (cut_short) bytes /= 2;
+  // An image of another size than configured is converted as it is: the pipeline compares every pair
+  // with the calibration and raises CalibrationInvalid, which says what is wrong better than a missing
+  // camera would (a camera reconfigured behind rutd's back, binning, another ROI).
   const int width = arv_buffer_get_image_width(buffer), height = arv_buffer_get_image_height(buffer);
-  if (data == nullptr || width != size_.width || height != size_.height) return false;
+  if (data == nullptr) return false;
   return convert_to_grey(layout_, data, bytes, width, height, out);
 }
 

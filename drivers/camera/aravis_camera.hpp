@@ -79,7 +79,8 @@ class AravisCamera {
   ArvBuffer* try_pop() noexcept;
   void requeue(ArvBuffer* buffer) noexcept;
   CameraFrameInfo info(ArvBuffer* buffer) noexcept;
-  // Converts the buffer's image to grey into `out` (reused when it fits). false: wrong size or format.
+  // Converts the buffer's image to grey into `out` (reused when it fits), at the size the camera sent,
+  // which may differ from the configured one. false: no data, or a payload shorter than the image.
   // cut_short (tests only): convert as if half of the payload had arrived.
   bool convert(ArvBuffer* buffer, cv::Mat& out, bool cut_short = false) noexcept;
 

@@ -510,7 +510,7 @@ bool AravisStereoSource::Impl::take_pair(StereoFrame& frame) {
   requeue(pair.right);
   if (!ok) {
     ++stats_.convert_failures;
-    error_ = "a camera delivered an image of another size or pixel format than configured";
+    error_ = "a camera delivered a buffer shorter than its image";
     return true;
   }
   frame.seq = seq_++;

@@ -98,6 +98,14 @@ class FakeStereoRig {
     cameras_[side] = nullptr;
   }
 
+  // The camera's Width register, as another program reconfiguring it behind rutd's back would set it:
+  // its next frames are that wide (a smaller width fits the buffers rutd allocated).
+  void set_width(std::size_t side, unsigned width) {
+    ASSERT_NE(cameras_[side], nullptr);
+    ASSERT_TRUE(arv_fake_camera_write_register(arv_gv_fake_camera_get_fake_camera(cameras_[side]),
+                                               ARV_FAKE_CAMERA_REGISTER_WIDTH, width));
+  }
+
   const SyntheticRenderer& renderer() const { return renderer_; }
   const StereoCalibration& calibration() const { return renderer_.calibration(); }
   // The rendered views the cameras send (8-bit, and x 257 as 16-bit): view i is the renderer's frame i.

@@ -226,6 +226,87 @@ TEST_F(AravisDaemon, RunMeasuresTheRutAndRidesThroughALostCamera) {
   EXPECT_NE(text.find("skew |right-left| p50"), std::string::npos) << text;
 }
 
+// A camera reconfigured behind rutd's back (the right one's width cut from 640 to 600 px for 3 s): its
+// images no longer fit the calibration, so rutd raises CalibrationInvalid on CAN and publishes no OK
+// measurement meanwhile, keeps running, and measures again once the width is back. The status frames are
+// decoded by canmatrix; the phases are told apart by the wall clock of the CAN log.
+TEST_F(AravisDaemon, ImagesThatNoLongerFitTheCalibrationRaiseCalibrationInvalid) {
+  test::FakeStereoRig rig(scene(), 6);
+  const auto config = write_config(rig);
+  const auto csv = dir_.path() / "m.csv";
+  const auto log = dir_.path() / "rutd.log";
+  Daemon daemon("run --config " + test::quoted(config), log.string());
+  for (auto t0 = std::chrono::steady_clock::now();
+       count_lines(csv) < 31 && std::chrono::steady_clock::now() - t0 < 60s;)
+    std::this_thread::sleep_for(50ms);
+  ASSERT_GE(count_lines(csv), 31u) << test::read_text(log);
+
+  // Written every 10 ms, as a program insisting on its setting would: when the fake cameras stall on a
+  // loaded machine, rutd reconnects and sets the width it is configured for again.
+  const std::int64_t resized_ns = wall_ns();
+  for (auto t0 = std::chrono::steady_clock::now(); std::chrono::steady_clock::now() - t0 < 3s;) {
+    rig.set_width(1, 600);
+    std::this_thread::sleep_for(10ms);
+  }
+  const std::int64_t restored_ns = wall_ns();
+  rig.set_width(1, 640);
+  const std::size_t restored_lines = count_lines(csv);
+  for (auto t0 = std::chrono::steady_clock::now();
+       (count_lines(csv) < restored_lines + 40 || std::chrono::steady_clock::now() - t0 < 3s) &&
+       std::chrono::steady_clock::now() - t0 < 30s;)
+    std::this_thread::sleep_for(50ms);
+  ASSERT_TRUE(daemon.running()) << test::read_text(log);
+  const std::int64_t stop_ns = wall_ns();
+  EXPECT_EQ(daemon.stop(), 0) << test::read_text(log);
+
+  const std::vector<test::DecodedFrame> frames = decode(dir_.path() / "can.log", dir_.path() / "decoded.csv");
+  // Frames in flight when the width changes are measured as before; 200 ms covers them (a frame period
+  // is 40 ms) and a status period.
+  const std::int64_t settle_ns = 200'000'000;
+  int ok_before = 0, invalid_before = 0, ok_resized = 0, invalid_resized = 0, status_resized = 0, ok_after = 0,
+      status_after = 0, invalid_after = 0;
+  for (const test::DecodedFrame& f : frames) {
+    if (f.t_ns >= stop_ns) break;
+    const bool ok = f.message == "RutMeasurement1" && f.phys.at("RutM1_Status") == 0;
+    const bool status = f.message == "RutSensorStatus";
+    const bool invalid = status && f.phys.at("CalibrationInvalid") != 0;
+    if (f.t_ns < resized_ns) {
+      ok_before += ok;
+      invalid_before += invalid;
+    } else if (f.t_ns >= resized_ns + settle_ns && f.t_ns < restored_ns) {
+      ok_resized += ok;
+      status_resized += status;
+      invalid_resized += invalid;
+    } else if (f.t_ns >= restored_ns + 1'000'000'000) {
+      ok_after += ok;
+      status_after += status;
+      invalid_after += invalid;
+    }
+  }
+  std::printf(
+      "CalibrationInvalid on %d of %d status frames while resized (%d OK measurements), %d of %d after "
+      "(%d OK); before: %d OK, %d flagged\n",
+      invalid_resized, status_resized, ok_resized, invalid_after, status_after, ok_after, ok_before, invalid_before);
+  EXPECT_GT(ok_before, 20);
+  EXPECT_EQ(invalid_before, 0);
+  // A reconnect inside the window may get a pair or two at the configured width before the next write.
+  const std::string text = test::read_text(log);
+  std::size_t reconnects = 0;
+  for (std::size_t at = text.find("back after"); at != std::string::npos; at = text.find("back after", at + 1))
+    ++reconnects;
+  EXPECT_LE(ok_resized, static_cast<int>(2 * reconnects))
+      << "a measurement published OK from images the calibration does not describe\n"
+      << text;
+  EXPECT_GE(status_resized, 20);
+  // Every status frame of the window says so, but for the ones a loopback stall of the fake cameras
+  // turns into a period without any pair.
+  EXPECT_GE(invalid_resized * 10, status_resized * 8);
+  EXPECT_GE(ok_after, 10) << "measuring did not resume";
+  EXPECT_EQ(invalid_after, 0);
+  EXPECT_GE(status_after, 15);
+  EXPECT_EQ(text.find("terminate"), std::string::npos) << text;
+}
+
 // Faults injected at each camera buffer pop (core/io_faults.hpp, through rutd_faults) for 1.5 s from 4 s
 // after the first pop (measuring by then; the fake cameras start slowly on a loaded machine), longer
 // than it takes to call a camera lost: corrupt buffers (handled as incomplete), short ones (conversion

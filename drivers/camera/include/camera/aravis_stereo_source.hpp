@@ -13,6 +13,9 @@
 //   connector thread reopens the lost one with backoff (reconnect_min_ms doubling to reconnect_max_ms; a
 //   USB3 Vision arrival reported by libusb hot-plug triggers an attempt at once). Once it is back and
 //   configured, pairs resume; the daemon never exits because a camera went away.
+// - A camera that starts sending images of another size than configured (reconfigured by another
+//   program, binning, a new ROI) is delivered as it is: the pipeline compares each pair with the
+//   calibration and raises CalibrationInvalid instead of measuring.
 // - Releasing a camera that no longer answers blocks in Aravis for seconds (register timeouts), so lost
 //   cameras are released on a reaper thread, never on the acquisition thread.
 #include <array>
@@ -36,7 +39,7 @@ struct AravisSourceStats {
   std::array<std::uint64_t, 2> incomplete{};  // buffers with missing packets, requeued (left, right)
   std::array<std::uint64_t, 2> losses{};      // times each camera was declared lost
   std::array<std::uint64_t, 2> reconnects{};  // times each camera came back
-  std::uint64_t convert_failures = 0;         // pairs whose image had the wrong size or format
+  std::uint64_t convert_failures = 0;         // pairs with a buffer shorter than its image
   std::uint64_t triggers = 0;                 // software trigger rounds fired
   std::uint64_t trigger_failures = 0;         // TriggerSoftware commands a camera refused
 };
