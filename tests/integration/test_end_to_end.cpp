@@ -3,6 +3,7 @@
 // and every measured depth must be within 1.0 mm of the truth (the seed's own algorithm was 3-5 mm off).
 // These scenes are clean: the CAN frames, decoded with the DBC by canmatrix, must carry no condition
 // flag (README, "Conditions rutd flags").
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
@@ -139,6 +140,47 @@ const Case kCases[] = {
 
 INSTANTIATE_TEST_SUITE_P(Matrix, EndToEnd, ::testing::ValuesIn(kCases),
                          [](const auto& info) { return std::string(info.param.name); });
+
+// The published uncertainty means what the README says: a standard uncertainty. Over every frame of the
+// matrix, the depth errors against the renderer's truth, divided by the DepthUncertainty the CAN frame
+// carries (decoded by canmatrix), must spread like a standard normal variable's: their RMS between 0.5
+// and 2 (an estimate twice too large or too small fails), at least 75 % of them within 2 u (95 % for a
+// normal variable), and none beyond 5 u. A floor of 0.02 mm stands for the CAN signal's 0.01 mm step.
+TEST(EndToEndUncertainty, DepthErrorsSpreadAsTheirEstimatedUncertainty) {
+  if (!test::have_canmatrix()) GTEST_SKIP() << "needs /usr/bin/python3 with canmatrix (python3-canmatrix)";
+  std::vector<double> z;
+  for (const Case& c : kCases) {
+    const test::TempDir tmp;
+    const auto truth = read_truth_csv(synthesize(c, tmp) + "/truth.csv");
+    const auto rows = replay(tmp.path().string() + "/rec", "", tmp);
+    bool decoded = false;
+    const auto conditions = test::frames_of(test::decode_candump(tmp.path() / "can.log", decoded), "RutConditions");
+    ASSERT_TRUE(decoded) << c.name;
+    ASSERT_EQ(rows.size(), truth.size()) << c.name;
+    ASSERT_EQ(conditions.size(), rows.size()) << c.name;
+    for (std::size_t i = 0; i < rows.size(); ++i) {
+      ASSERT_EQ(rows[i].measurement.status, RutStatus::Ok) << c.name << " frame " << i;
+      const double u = std::max(conditions[i].phys.at("DepthUncertainty"), 0.02);
+      z.push_back((rows[i].measurement.depth_mm - truth[i].depth_mm) / u);
+    }
+  }
+  ASSERT_GE(z.size(), 30u);
+  double sum2 = 0.0, worst = 0.0;
+  std::size_t within2 = 0;
+  for (const double v : z) {
+    sum2 += v * v;
+    worst = std::max(worst, std::abs(v));
+    within2 += std::abs(v) <= 2.0;
+  }
+  const double rms = std::sqrt(sum2 / static_cast<double>(z.size()));
+  const double share2 = static_cast<double>(within2) / static_cast<double>(z.size());
+  std::printf("%zu frames: RMS of error / uncertainty %.2f, %.0f %% within 2 u, worst %.2f u\n", z.size(), rms,
+              100.0 * share2, worst);
+  EXPECT_GE(rms, 0.5) << "the uncertainty overstates the errors";
+  EXPECT_LE(rms, 2.0) << "the uncertainty understates the errors";
+  EXPECT_GE(share2, 0.75);
+  EXPECT_LE(worst, 5.0);
+}
 
 // The 30-60 mm ruts of the seed's Table 3 at 640x480, both textures and rolls.
 const Case kGpuCases[] = {
