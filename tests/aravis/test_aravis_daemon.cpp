@@ -353,15 +353,13 @@ TEST_F(AravisDaemon, CameraBufferFaultsAreFlaggedAndMeasuringResumes) {
            !(frames[first_ok].message == "RutMeasurement1" && frames[first_ok].phys.at("RutM1_Status") == 0))
       ++first_ok;
     int flagged = 0, ok_before = 0, tail_status = 0, tail_flagged = 0, tail_ok = 0;
-    std::size_t first_flag = frames.size();
     for (std::size_t i = first_ok; i < frames.size(); ++i) {
       const test::DecodedFrame& f = frames[i];
       const bool ok = f.message == "RutMeasurement1" && f.phys.at("RutM1_Status") == 0;
       const bool no_camera = f.message == "RutSensorStatus" && f.phys.at("NoCamera") != 0;
       if (f.t_ns < tail_ns) {
         flagged += no_camera;
-        if (no_camera && first_flag == frames.size()) first_flag = i;
-        ok_before += ok && first_flag == frames.size();
+        ok_before += ok;
       } else {
         tail_ok += ok;
         tail_status += f.message == "RutSensorStatus";
@@ -370,19 +368,22 @@ TEST_F(AravisDaemon, CameraBufferFaultsAreFlaggedAndMeasuringResumes) {
     }
     std::printf(
         "%s: NoCamera on %d status frames before the tail; tail: %d of %d status frames flagged, %d OK "
-        "measurements; %d OK before the first flag\n",
+        "measurements; %d OK before the tail\n",
         fault, flagged, tail_flagged, tail_status, tail_ok, ok_before);
     for (std::size_t at = text.find("reconnecting"), shown = 0; at != std::string::npos && shown < 12;
          at = text.find("reconnecting", at + 1), ++shown) {
       const std::size_t line = text.rfind('\n', at) + 1;
       std::printf("  %s\n", text.substr(line, text.find('\n', at) - line).c_str());
     }
-    EXPECT_GT(ok_before, 5) << "nothing measured before the fault";
+    // Measured before the tail (before the window too: the daemon waited for 31 measurements, while a
+    // slow start under a sanitizer may see a camera stall and NoCamera before the fault).
+    EXPECT_GT(ok_before, 5) << "nothing measured before the tail";
     EXPECT_GT(flagged, 0) << "NoCamera never raised for the fault\n" << text;
-    // Resumed: status frames through the tail (10 Hz, at least 3 s of it) mostly say NoCamera down, and
-    // measurements flow. Not a rate: a loaded CI run gives fewer pairs than a quiet machine.
+    // Resumed: status frames through the tail (10 Hz, at least 3 s of it) mostly say NoCamera down (a
+    // stuck flag is up on all of them; spontaneous stalls under ASan on a busy machine raised it on up to
+    // 21 %), and measurements flow. Not a rate: a loaded CI run gives fewer pairs than a quiet machine.
     EXPECT_GE(tail_status, 20) << text;
-    EXPECT_LT(tail_flagged * 4, tail_status) << "NoCamera stayed up after the fault\n" << text;
+    EXPECT_LT(tail_flagged * 2, tail_status) << "NoCamera stayed up after the fault\n" << text;
     EXPECT_GE(tail_ok, 10) << "measuring did not resume\n" << text;
 
     const auto injected = [&] {
