@@ -95,6 +95,19 @@ std::size_t count_lines(const std::filesystem::path& p) {
   return n;
 }
 
+// Polls `csv` until it has `lines` lines and `at_least` has passed, or `at_most` has passed; returns
+// its line count then.
+std::size_t wait_for_lines(const std::filesystem::path& csv, std::size_t lines,
+                           std::chrono::steady_clock::duration at_least, std::chrono::steady_clock::duration at_most) {
+  const auto t0 = std::chrono::steady_clock::now();
+  for (;;) {
+    const std::size_t n = count_lines(csv);
+    const auto waited = std::chrono::steady_clock::now() - t0;
+    if ((n >= lines && waited >= at_least) || waited >= at_most) return n;
+    std::this_thread::sleep_for(50ms);
+  }
+}
+
 // Decodes a candump log with canmatrix and the DBC into `out`; one entry per frame, in log order.
 std::vector<test::DecodedFrame> decode(const std::filesystem::path& log, const std::filesystem::path& out) {
   const std::string cmd = std::string("/usr/bin/python3 ") + RUTD_SOURCE_DIR + "/tests/can/decode_candump.py " +
@@ -157,10 +170,7 @@ TEST_F(AravisDaemon, RunMeasuresTheRutAndRidesThroughALostCamera) {
 
   // Measuring: wait for 30 measurements.
   const auto csv = dir_.path() / "m.csv";
-  for (auto t0 = std::chrono::steady_clock::now();
-       count_lines(csv) < 31 && std::chrono::steady_clock::now() - t0 < 60s;)
-    std::this_thread::sleep_for(50ms);
-  ASSERT_GE(count_lines(csv), 31u) << test::read_text(log);
+  ASSERT_GE(wait_for_lines(csv, 31, 0s, 60s), 31u) << test::read_text(log);
 
   const std::int64_t stopped_ns = wall_ns();
   rig.stop(1);
@@ -236,10 +246,7 @@ TEST_F(AravisDaemon, ImagesThatNoLongerFitTheCalibrationRaiseCalibrationInvalid)
   const auto csv = dir_.path() / "m.csv";
   const auto log = dir_.path() / "rutd.log";
   Daemon daemon("run --config " + test::quoted(config), log.string());
-  for (auto t0 = std::chrono::steady_clock::now();
-       count_lines(csv) < 31 && std::chrono::steady_clock::now() - t0 < 60s;)
-    std::this_thread::sleep_for(50ms);
-  ASSERT_GE(count_lines(csv), 31u) << test::read_text(log);
+  ASSERT_GE(wait_for_lines(csv, 31, 0s, 60s), 31u) << test::read_text(log);
 
   // Written every 10 ms, as a program insisting on its setting would: when the fake cameras stall on a
   // loaded machine, rutd reconnects and sets the width it is configured for again.
@@ -251,10 +258,7 @@ TEST_F(AravisDaemon, ImagesThatNoLongerFitTheCalibrationRaiseCalibrationInvalid)
   const std::int64_t restored_ns = wall_ns();
   rig.set_width(1, 640);
   const std::size_t restored_lines = count_lines(csv);
-  for (auto t0 = std::chrono::steady_clock::now();
-       (count_lines(csv) < restored_lines + 40 || std::chrono::steady_clock::now() - t0 < 3s) &&
-       std::chrono::steady_clock::now() - t0 < 30s;)
-    std::this_thread::sleep_for(50ms);
+  wait_for_lines(csv, restored_lines + 40, 3s, 30s);
   ASSERT_TRUE(daemon.running()) << test::read_text(log);
   const std::int64_t stop_ns = wall_ns();
   EXPECT_EQ(daemon.stop(), 0) << test::read_text(log);
@@ -326,19 +330,13 @@ TEST_F(AravisDaemon, CameraBufferFaultsAreFlaggedAndMeasuringResumes) {
     const auto log = dir_.path() / (std::string("rutd-") + fault + ".log");
     Daemon daemon(std::string("--fault camera-pop:") + fault + ":from=4:until=5.5 run --config " + test::quoted(config),
                   log.string(), RUTD_FAULTS_BINARY);
-    for (auto t0 = std::chrono::steady_clock::now();
-         count_lines(csv) < 31 && std::chrono::steady_clock::now() - t0 < 60s;)
-      std::this_thread::sleep_for(50ms);
-    ASSERT_GE(count_lines(csv), 31u) << test::read_text(log);
+    ASSERT_GE(wait_for_lines(csv, 31, 0s, 60s), 31u) << test::read_text(log);
     std::this_thread::sleep_for(8s);  // the window ends 5.5 s after the first pop
     const std::int64_t tail_ns = wall_ns();
     // Then at least 3 s and 40 more measurements, up to 30 s: reconnecting after a stall storm is slow on
     // a loaded machine.
     const std::size_t after_window = count_lines(csv);
-    for (auto t0 = std::chrono::steady_clock::now();
-         (count_lines(csv) < after_window + 40 || std::chrono::steady_clock::now() - t0 < 3s) &&
-         std::chrono::steady_clock::now() - t0 < 30s;)
-      std::this_thread::sleep_for(50ms);
+    wait_for_lines(csv, after_window + 40, 3s, 30s);
     ASSERT_TRUE(daemon.running()) << test::read_text(log);
     const std::int64_t stop_ns = wall_ns();
     EXPECT_EQ(daemon.stop(), 0) << test::read_text(log);
