@@ -1,9 +1,10 @@
 // The status frame's health bits, end to end through `rutd run` as a vehicle sees them: the candump log
 // the daemon writes is decoded with config/rutd.dbc by canmatrix (tests/can/decode_candump.py). Each
 // test makes the condition happen to the daemon (a silent source, a pipeline slower than the frames'
-// age limit, a featureless or a half-blind scene) and reads the bit off the decoded frames. BusOff and
-// CanTxDrops come from the CAN sink's bus: tests/can/test_can_sink_status.cpp.
+// age limit, pairs faster than they are measured, a featureless or a half-blind scene) and reads the bit off the
+// decoded frames. BusOff and CanTxDrops come from the CAN sink's bus: tests/can/test_can_sink_status.cpp.
 #include <cmath>
+#include <cstdio>
 #include <fstream>
 #include <string>
 #include <vector>
@@ -91,6 +92,36 @@ TEST(StatusBits, StaleFramesRaisedWhenMeasuringIsSlowerThanTheAgeLimit) {
       EXPECT_EQ(f.phys.at("StaleFrames"), 0);
     }
   }
+}
+
+// Pairs 1 ms apart, replayed at their own pace (as fast as their images decode) and measured on 400
+// rows with the slowest matcher: far faster than the stages measure them, so the pipeline drops pairs
+// at its full queues. FrameDrops goes up, and every pair is accounted for: the measurements published
+// plus the last status frame's DroppedFrames (drops and stale refusals) make the recording's 40 pairs.
+TEST(StatusBits, FrameDropsRaisedWhenPairsComeFasterThanTheyAreMeasured) {
+  if (!test::have_canmatrix()) GTEST_SKIP() << "needs /usr/bin/python3 with canmatrix (python3-canmatrix)";
+  const test::TempDir tmp;
+  const std::string rec = (tmp.path() / "rec").string();
+  ASSERT_EQ(test::run_rutd("synth " + rec + " --frames 40 --fps 1000 --seed 5"), 0);
+  const auto config = tmp.path() / "rutd.yaml";
+  std::ofstream(config) << "source:\n  type: replay\n  replay:\n    dir: " << rec
+                        << "\n    paced: true\nmeasurement:\n  engine: hh\n  strip_rows: 400\n";
+  const auto frames = run_and_decode("--config " + config.string(), tmp);
+  int measurements = 0, status = 0, raised = 0;
+  double last_dropped = -1;
+  for (const auto& f : frames) {
+    measurements += f.message == "RutMeasurement1";
+    if (f.message != "RutSensorStatus") continue;
+    ++status;
+    raised += f.phys.at("FrameDrops") == 1;
+    last_dropped = f.phys.at("DroppedFrames");
+  }
+  std::printf("%d measurements published, %d status frames, FrameDrops on %d, DroppedFrames %.0f at the end\n",
+              measurements, status, raised, last_dropped);
+  EXPECT_GT(status, 0);
+  EXPECT_GT(raised, 0) << "FrameDrops never raised";
+  EXPECT_GE(last_dropped, 10);
+  EXPECT_EQ(measurements + static_cast<int>(last_dropped), 40);
 }
 
 TEST(StatusBits, LowTextureRaisedOnAFeaturelessScene) {
