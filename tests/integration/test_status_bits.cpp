@@ -28,6 +28,17 @@ std::vector<test::DecodedFrame> run_and_decode(const std::string& args, const te
   return frames;
 }
 
+// `rutd synth` with `synth_args` into tmp/rec, then `rutd run` on it as a paced replay source with
+// `more_yaml` appended to the configuration; the decoded CAN frames.
+std::vector<test::DecodedFrame> run_paced_replay(const std::string& synth_args, const std::string& more_yaml,
+                                                 const test::TempDir& tmp) {
+  const std::string rec = (tmp.path() / "rec").string();
+  EXPECT_EQ(test::run_rutd("synth " + rec + " " + synth_args), 0);
+  const auto config = tmp.path() / "rutd.yaml";
+  std::ofstream(config) << "source:\n  type: replay\n  replay:\n    dir: " << rec << "\n    paced: true\n" << more_yaml;
+  return run_and_decode("--config " + config.string(), tmp);
+}
+
 // A recording of `count` pairs 1/30 s apart: the renderer's calibration, the left image from `left`
 // (empty: rendered), the right image from `right` (empty: rendered).
 void write_recording(const std::string& dir, int count, const cv::Mat& left, const cv::Mat& right) {
@@ -68,13 +79,9 @@ TEST(StatusBits, NoCameraRaisedWhileThePairsStopAndClearedWhenTheyResume) {
 TEST(StatusBits, StaleFramesRaisedWhenMeasuringIsSlowerThanTheAgeLimit) {
   if (!test::have_canmatrix()) GTEST_SKIP() << "needs /usr/bin/python3 with canmatrix (python3-canmatrix)";
   const test::TempDir tmp;
-  const std::string rec = (tmp.path() / "rec").string();
-  ASSERT_EQ(test::run_rutd("synth " + rec + " --frames 20 --fps 30 --seed 4"), 0);
   // Frames older than 1 ms when they reach a stage are refused: matching alone takes longer.
-  const auto config = tmp.path() / "rutd.yaml";
-  std::ofstream(config) << "source:\n  type: replay\n  replay:\n    dir: " << rec
-                        << "\n    paced: true\npipeline:\n  max_frame_age_ms: 1\n";
-  const auto frames = run_and_decode("--config " + config.string(), tmp);
+  const auto frames = run_paced_replay("--frames 20 --fps 30 --seed 4", "pipeline:\n  max_frame_age_ms: 1\n", tmp);
+  const std::string rec = (tmp.path() / "rec").string();
   int stale = 0, status = 0;
   for (const auto& f : frames) {
     if (f.message != "RutSensorStatus") continue;
@@ -101,12 +108,8 @@ TEST(StatusBits, StaleFramesRaisedWhenMeasuringIsSlowerThanTheAgeLimit) {
 TEST(StatusBits, FrameDropsRaisedWhenPairsComeFasterThanTheyAreMeasured) {
   if (!test::have_canmatrix()) GTEST_SKIP() << "needs /usr/bin/python3 with canmatrix (python3-canmatrix)";
   const test::TempDir tmp;
-  const std::string rec = (tmp.path() / "rec").string();
-  ASSERT_EQ(test::run_rutd("synth " + rec + " --frames 40 --fps 1000 --seed 5"), 0);
-  const auto config = tmp.path() / "rutd.yaml";
-  std::ofstream(config) << "source:\n  type: replay\n  replay:\n    dir: " << rec
-                        << "\n    paced: true\nmeasurement:\n  engine: hh\n  strip_rows: 400\n";
-  const auto frames = run_and_decode("--config " + config.string(), tmp);
+  const auto frames =
+      run_paced_replay("--frames 40 --fps 1000 --seed 5", "measurement:\n  engine: hh\n  strip_rows: 400\n", tmp);
   int measurements = 0, status = 0, raised = 0;
   double last_dropped = -1;
   for (const auto& f : frames) {
