@@ -135,15 +135,20 @@ TEST(StatusBits, LowTextureRaisedOnAFeaturelessScene) {
   write_recording(rec, 12, grey, grey);
   const auto frames = run_and_decode("--replay " + rec + " --frames 12", tmp);
   int measurements = 0, low_texture = 0;
+  double last_dropped = -1;
   for (const auto& f : frames) {
     if (f.message == "RutMeasurement1") {
       ++measurements;
       EXPECT_EQ(f.named.at("RutM1_Status"), "TOO_FEW_POINTS");
     }
-    if (f.message == "RutSensorStatus" && measurements > 0) low_texture += f.phys.at("LowTexture") == 1;
+    if (f.message != "RutSensorStatus") continue;
+    if (measurements > 0) low_texture += f.phys.at("LowTexture") == 1;
+    last_dropped = f.phys.at("DroppedFrames");
   }
-  // Real-time mode: a pair may be dropped while matching lags (freshest wins), so not all 12 arrive.
-  EXPECT_GE(measurements, 6);
+  // Real-time mode: freshest wins, so a pair is dropped whenever matching lags (how many depends on the
+  // machine's load: most of them under a sanitizer on a busy machine). Every pair is accounted for.
+  EXPECT_GE(measurements, 1);
+  EXPECT_EQ(measurements + static_cast<int>(last_dropped), 12) << measurements << " measured";
   EXPECT_GT(low_texture, 0) << "LowTexture never raised";
 }
 
@@ -156,12 +161,17 @@ TEST(StatusBits, ARefusedDepthNamesItsConditionOnTheStatusFrame) {
   write_recording(rec, 12, dark, cv::Mat());
   const auto frames = run_and_decode("--replay " + rec + " --frames 12", tmp);
   int measurements = 0, named = 0, left_flag = 0;
+  double last_dropped = -1;
   for (const auto& f : frames) {
     if (f.message == "RutMeasurement1") ++measurements;
     if (f.message == "RutConditions") left_flag += f.phys.at("LeftLensObstructed") == 1;
-    if (f.message == "RutSensorStatus" && measurements > 0) named += f.named.at("RutS_LastStatus") == "LENS_OBSTRUCTED";
+    if (f.message != "RutSensorStatus") continue;
+    if (measurements > 0) named += f.named.at("RutS_LastStatus") == "LENS_OBSTRUCTED";
+    last_dropped = f.phys.at("DroppedFrames");
   }
-  EXPECT_GE(measurements, 6);  // real-time mode may drop a pair while matching lags
+  // Real-time mode drops pairs while matching lags; every pair is accounted for.
+  EXPECT_GE(measurements, 1);
+  EXPECT_EQ(measurements + static_cast<int>(last_dropped), 12) << measurements << " measured";
   EXPECT_EQ(left_flag, measurements);
   EXPECT_GT(named, 0) << "the status frame never said LENS_OBSTRUCTED";
 }
