@@ -172,7 +172,7 @@ struct RealtimePipeline::Impl {
 
   std::array<std::atomic<bool>, kStageCount> done{};  // stage k drained after its upstream finished
   std::array<std::atomic<std::uint64_t>, kStageCount> dropped{}, stale{};
-  std::atomic<std::uint64_t> acquired{0}, source_timeouts{0}, source_errors{0}, rejected{0}, stage_errors{0},
+  std::atomic<std::uint64_t> acquired{0}, source_timeouts{0}, source_errors{0}, rejected{0}, fitted{0}, stage_errors{0},
       sink_errors{0}, measured{0}, published{0}, published_ok{0}, status_sent{0};
   std::atomic<std::int64_t> last_publish_ns{0}, last_frame_ns{0};
   std::atomic<bool> source_failing{false};
@@ -219,7 +219,7 @@ struct RealtimePipeline::Impl {
   void publish_one(FrameSlot* slot) noexcept;
   // Publish thread only: counter totals at the start of the current status period and rate window.
   struct Window {
-    std::uint64_t drops = 0, stales = 0, rejected = 0;
+    std::uint64_t drops = 0, stales = 0, rejected = 0, fitted = 0;
     std::int64_t rate_t0 = 0;
     std::uint64_t acquired = 0, published = 0;
   };
@@ -362,7 +362,7 @@ void RealtimePipeline::Impl::run_stage(Stage stage, FrameSlot* slot) noexcept {
     FrameWork& w = slot->work;
     if (stage == Stage::Rectify) {
       keep = stages.rectify(w);
-      if (!keep) add(rejected);
+      add(keep ? fitted : rejected);
     } else if (stage == Stage::Match) {
       stages.match(w);
     } else {
@@ -429,18 +429,23 @@ void RealtimePipeline::Impl::update_health(std::int64_t now, Window& w) noexcept
     drops += dropped[i].load(kRelaxed);
     stales += stale[i].load(kRelaxed);
   }
-  const std::uint64_t rej = rejected.load(kRelaxed);
+  const std::uint64_t rej = rejected.load(kRelaxed), fit = fitted.load(kRelaxed);
   std::uint32_t bits = 0;
   if (source_failing.load(kRelaxed) || now - last_frame_ns.load(kRelaxed) > to_ns(config.no_frame_timeout))
     bits |= kNoCamera;
   if (stales > w.stales) bits |= kStale;
-  if (rej > w.rejected) bits |= kCalibration;
+  // Images that do not fit the calibration are a state of the cameras, not an event: the flag stays up
+  // through periods without any pair (a stall, a reconnect under way) and goes down only when a pair fits
+  // again. A period with both says so.
+  const bool was_invalid = health_bits.load(kRelaxed) & kCalibration;
+  if (rej > w.rejected || (was_invalid && fit == w.fitted)) bits |= kCalibration;
   if (drops > w.drops) bits |= kDrops;
   if (last_status.load(kRelaxed) == static_cast<std::uint8_t>(RutStatus::TooFewPoints)) bits |= kLowTexture;
   health_bits.store(bits, kRelaxed);
   w.drops = drops;
   w.stales = stales;
   w.rejected = rej;
+  w.fitted = fit;
 
   constexpr std::int64_t kRateWindowNs = 1'000'000'000;
   if (now - w.rate_t0 >= kRateWindowNs) {

@@ -340,9 +340,26 @@ ArvBuffer* AravisCamera::try_pop() noexcept {
 
 void AravisCamera::requeue(ArvBuffer* buffer) noexcept { arv_stream_push_buffer(stream_, buffer); }
 
+namespace {
+
+// Aravis's own test before its image getters (arv_buffer_part_is_image, not exported): a payload that
+// carries images and a first part that is a 2D image.
+bool holds_image(ArvBuffer* buffer) noexcept {
+  const ArvBufferPayloadType payload = arv_buffer_get_payload_type(buffer);
+  if (payload != ARV_BUFFER_PAYLOAD_TYPE_IMAGE && payload != ARV_BUFFER_PAYLOAD_TYPE_EXTENDED_CHUNK_DATA &&
+      payload != ARV_BUFFER_PAYLOAD_TYPE_MULTIPART)
+    return false;
+  return arv_buffer_get_n_parts(buffer) > 0 &&
+         arv_buffer_get_part_data_type(buffer, 0) == ARV_BUFFER_PART_DATA_TYPE_2D_IMAGE;
+}
+
+}  // namespace
+
 CameraFrameInfo AravisCamera::info(ArvBuffer* buffer) noexcept {
   CameraFrameInfo i;
-  i.complete = arv_buffer_get_status(buffer) == ARV_BUFFER_STATUS_SUCCESS;
+  // Complete means an image we can read: Aravis also hands over buffers whose transfer succeeded with no
+  // image in them (another payload type, no part), and its image getters assert on those.
+  i.complete = arv_buffer_get_status(buffer) == ARV_BUFFER_STATUS_SUCCESS && holds_image(buffer);
   i.t_ns = static_cast<std::int64_t>(arv_buffer_get_timestamp(buffer));
   const std::uint64_t raw = arv_buffer_get_frame_id(buffer);
   if (!short_frame_ids_) {

@@ -302,9 +302,10 @@ TEST_F(AravisDaemon, ImagesThatNoLongerFitTheCalibrationRaiseCalibrationInvalid)
       << "a measurement published OK from images the calibration does not describe\n"
       << text;
   EXPECT_GE(status_resized, 20);
-  // Every status frame of the window says so, but for the ones a loopback stall of the fake cameras
-  // turns into a period without any pair.
-  EXPECT_GE(invalid_resized * 10, status_resized * 8);
+  // Every status frame of the window says so, through periods without any pair too (a loopback stall of
+  // the fake cameras): the flag falls only when a pair fits, which a reconnect's first pairs may, for a
+  // status period or two until the next write.
+  EXPECT_GE(invalid_resized + static_cast<int>(2 * reconnects), status_resized) << text;
   EXPECT_GE(ok_after, 10) << "measuring did not resume";
   EXPECT_EQ(invalid_after, 0);
   EXPECT_GE(status_after, 15);

@@ -163,9 +163,10 @@ class FakeSource final : public FrameSource {
 
 struct StageOptions {
   microseconds rectify{0}, match{0}, extract{0};
-  std::uint64_t reject_every = 0;                   // rectify refuses every n-th frame
-  std::uint64_t throw_every = 0;                    // match throws on every n-th frame
-  std::counting_semaphore<>* match_gate = nullptr;  // the first match waits for a permit
+  std::uint64_t reject_every = 0;                                        // rectify refuses every n-th frame
+  std::uint64_t reject_seq = std::numeric_limits<std::uint64_t>::max();  // and the frame of this seq
+  std::uint64_t throw_every = 0;                                         // match throws on every n-th frame
+  std::counting_semaphore<>* match_gate = nullptr;                       // the first match waits for a permit
 };
 
 // Stages that take a set time and stamp the frame's seq into the measurement (the sink checks it, so a
@@ -176,6 +177,7 @@ class FakeStages final : public PipelineStages {
   bool rectify(FrameWork& w) override {
     std::this_thread::sleep_for(options_.rectify);
     rectified.fetch_add(1);
+    if (w.frame.seq == options_.reject_seq) return false;
     return !(options_.reject_every > 0 && w.frame.seq % options_.reject_every == options_.reject_every - 1);
   }
   void match(FrameWork& w) override {
@@ -202,7 +204,10 @@ class FakeStages final : public PipelineStages {
 
 class FakeSink final : public MeasurementSink {
  public:
-  FakeSink() { seqs.reserve(1 << 16); }
+  FakeSink() {
+    seqs.reserve(1 << 16);
+    calibration_flags.reserve(1 << 16);
+  }
   void publish(const FrameWork& w, const SensorHealth&) override {
     if (seqs.size() < seqs.capacity()) seqs.push_back(w.frame.seq);
     if (w.measurement.status == RutStatus::Ok && w.measurement.depth_mm != static_cast<double>(w.frame.seq))
@@ -211,11 +216,13 @@ class FakeSink final : public MeasurementSink {
   }
   void publish_status(const SensorHealth& h, std::int64_t) override {
     statuses.fetch_add(1);
+    if (calibration_flags.size() < calibration_flags.capacity()) calibration_flags.push_back(h.calibration_invalid);
     if (h.no_camera) saw_no_camera.store(true);
     if (h.stale_frames) saw_stale.store(true);
     if (h.frame_drops) saw_drops.store(true);
   }
-  std::vector<std::uint64_t> seqs;  // publish thread; read after stop()
+  std::vector<std::uint64_t> seqs;      // publish thread; read after stop()
+  std::vector<char> calibration_flags;  // each status's calibration_invalid, in order; as seqs
   std::atomic<std::uint64_t> published{0}, statuses{0}, mismatches{0};
   std::atomic<bool> saw_no_camera{false}, saw_stale{false}, saw_drops{false};
 };
@@ -456,6 +463,48 @@ TEST(RealtimePipeline, StatusGoesOutAtItsRateWithoutAnyFrameAndFlagsTheMissingCa
   EXPECT_EQ(pipeline.progress(), 0u);
   EXPECT_EQ(pipeline.last_publish_ns(), 0);
   EXPECT_GT(s.source_timeouts, 0u);
+}
+
+// A pair that does not fit the calibration raises CalibrationInvalid, and the flag stays up through
+// status periods without any pair (a camera stalled or reconnecting after it was reconfigured) until a
+// pair fits again: a period in which nothing was seen says nothing new about the cameras.
+TEST(RealtimePipeline, CalibrationInvalidHoldsUntilAPairFitsAgain) {
+  std::counting_semaphore<> gate(0);
+  FakeSource source({.gate = &gate});
+  FakeStages stages({.reject_seq = 3});
+  FakeSink sink;
+  PipelineConfig config = test_config();
+  config.status_period = 20ms;
+  config.no_frame_timeout = 60s;  // the gaps below are not a lost camera
+  config.lossless = true;         // every pair released is measured, none superseded
+  RealtimePipeline pipeline(source, stages, sink, config);
+  pipeline.start();
+  gate.release(3);  // seqs 0..2 fit
+  ASSERT_TRUE(eventually([&] { return pipeline.stats().published == 3; }));
+  std::this_thread::sleep_for(100ms);
+  gate.release(1);  // seq 3 does not fit, then 300 ms without any pair
+  ASSERT_TRUE(eventually([&] { return pipeline.stats().rectify_rejected == 1; }));
+  EXPECT_TRUE(eventually([&] { return pipeline.health().calibration_invalid; }, 1s));
+  std::this_thread::sleep_for(300ms);
+  EXPECT_TRUE(pipeline.health().calibration_invalid) << "the flag fell without a pair that fits";
+  gate.release(1);  // seq 4 fits
+  ASSERT_TRUE(eventually([&] { return pipeline.stats().published == 4; }));
+  std::this_thread::sleep_for(100ms);
+  pipeline.stop();
+
+  // The flags in order: down, then up in one run covering the 300 ms gap, then down again.
+  const std::vector<char>& f = sink.calibration_flags;
+  const auto first_up = std::find(f.begin(), f.end(), 1);
+  ASSERT_NE(first_up, f.end()) << "no status said CalibrationInvalid";
+  const auto last_up = f.begin() + (f.rend() - std::find(f.rbegin(), f.rend(), 1));  // one past the last
+  const auto run = static_cast<int>(last_up - first_up);
+  std::printf("%zu status frames: %td before the refused pair, a run of %d flagged, %td after\n", f.size(),
+              first_up - f.begin(), run, f.end() - last_up);
+  EXPECT_EQ(std::count(first_up, last_up, 1), run) << "the flag fell inside the run";
+  EXPECT_GE(run, 8);  // 300 ms at 20 ms a status, with room for a loaded machine
+  EXPECT_GE(first_up - f.begin(), 2);
+  EXPECT_GE(f.end() - last_up, 2) << "the flag stayed up after a pair fitted again";
+  EXPECT_FALSE(pipeline.health().calibration_invalid);
 }
 
 TEST(RealtimePipeline, ConfigurationIsCheckedAndStartRunsOnce) {

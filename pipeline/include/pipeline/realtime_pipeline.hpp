@@ -164,7 +164,8 @@ class RealtimePipeline {
   // Any thread, lock-free reads.
   PipelineStats stats() const;
   // For the status message. Over the last status period: no_camera (no pair for no_frame_timeout, or
-  // the source reports Error), stale_frames, calibration_invalid (rectify refused frames), frame_drops.
+  // the source reports Error), stale_frames, frame_drops. calibration_invalid: rectify refused a pair in
+  // the period, or refused the last pair it saw (held until a pair fits again).
   // low_texture: the last measurement was TooFewPoints. frame_rate_hz: pairs acquired per second.
   // dropped_frames: dropped + stale since start. can_tx_drops, bus_off, recording_error stay false: the
   // sinks that know them set them.
