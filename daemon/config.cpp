@@ -214,6 +214,11 @@ void read_measurement(Section s, MeasurerConfig& m) {
                 [](const int& v) {
                   return v == 2 || v == 4 || v == 8 ? std::string() : "expected 2, 4 or 8, got " + std::to_string(v);
                 })
+      .get<int>("sgm_segment", m.engine_config.sgm_segment,
+                [](const int& v) {
+                  return v == 0 || (v >= 16 && v <= 65535) ? std::string()
+                                                           : "expected 0 (off) or 16..65535, got " + std::to_string(v);
+                })
       .get<int>("strip_rows", strip_rows, in_range(0, 4096))
       .get<int>("strip_row0", strip_row0, in_range(-1, 65535))
       .get<double>("near_mm", m.range.near_mm, in_range(20.0, 20000.0))

@@ -83,32 +83,53 @@ DisparityBand band_for_range(const StereoGeometry& g, WorkingRange range) {
   return band_between(lo, hi);
 }
 
+BandEstimator::Plan BandEstimator::plan(const StereoGeometry& g, WorkingRange range, cv::Size strip) {
+  Plan p;
+  p.full = band_for_range(g, range);
+  const int full_hi = p.full.min_disparity + p.full.num_disparities - 1;
+  while (p.full.num_disparities / p.scale > kMaxCoarseSpan) p.scale *= 2;  // along x only: rows are few already
+  const int coarse_width = strip.width / p.scale;
+  const int coarse_lo = p.full.min_disparity / p.scale;
+  // Keep a quarter of the coarse strip as overlap between the views, or nothing can match.
+  const int coarse_hi = std::min((full_hi + p.scale - 1) / p.scale, coarse_width - coarse_width / 4);
+  p.coarse = coarse_hi - coarse_lo >= 1 && strip.height >= 3;
+  if (p.coarse) p.coarse_band = band_between(coarse_lo, coarse_hi);
+  // Rows halved too: the band is a percentile over the whole strip, which every second row gives as well.
+  p.coarse_size = cv::Size(coarse_width, strip.height >= 10 ? strip.height / 2 : strip.height);
+  return p;
+}
+
 DisparityBand BandEstimator::estimate(const cv::Mat& left_strip, const cv::Mat& right_strip, const StereoGeometry& g,
                                       WorkingRange range) {
-  const DisparityBand full = band_for_range(g, range);
-  const int full_hi = full.min_disparity + full.num_disparities - 1;
-  int scale = 1;  // horizontal downsampling: rows are few already, disparity only lives along x
-  while (full.num_disparities / scale > kMaxCoarseSpan) scale *= 2;
-  const int coarse_width = left_strip.cols / scale;
-  const int coarse_lo = full.min_disparity / scale;
-  // Keep a quarter of the coarse strip as overlap between the views, or nothing can match.
-  const int coarse_hi = std::min((full_hi + scale - 1) / scale, coarse_width - coarse_width / 4);
-  if (coarse_hi - coarse_lo < 1 || left_strip.rows < 3) return full;
-
-  // Rows halved too: the band is a percentile over the whole strip, which every second row gives as well.
-  const int coarse_rows = left_strip.rows >= 10 ? left_strip.rows / 2 : left_strip.rows;
-  const cv::Size coarse_size(coarse_width, coarse_rows);
-  cv::resize(left_strip, left_, coarse_size, 0, 0, cv::INTER_AREA);
-  cv::resize(right_strip, right_, coarse_size, 0, 0, cv::INTER_AREA);
-  const int block = coarse_rows >= 5 ? 5 : 3;
+  const Plan p = plan(g, range, left_strip.size());
+  if (!p.coarse) return p.full;
+  cv::resize(left_strip, left_, p.coarse_size, 0, 0, cv::INTER_AREA);
+  cv::resize(right_strip, right_, p.coarse_size, 0, 0, cv::INTER_AREA);
+  const int block = p.coarse_size.height >= 5 ? 5 : 3;
   if (!engine_ || engine_block_ != block) {
     EngineConfig params;
     params.block_size = block;
     engine_ = make_cpu_engine(EngineKind::Sgbm3Way, params);
     engine_block_ = block;
   }
-  engine_->compute(left_, right_, band_between(coarse_lo, coarse_hi), coarse_);
+  engine_->compute(left_, right_, p.coarse_band, coarse_);
+  return band_from_coarse(p);
+}
 
+std::optional<DisparityBand> BandEstimator::estimate_on_device(DisparityEngine& engine, const cv::Mat& left_raw,
+                                                               const cv::Mat& right_raw, const StereoGeometry& g,
+                                                               WorkingRange range, cv::Mat& left_strip,
+                                                               cv::Mat& right_strip) {
+  const Plan p = plan(g, range, cv::Size(g.rectified_size().width, g.roi().rows));
+  if (!p.coarse ||
+      !engine.coarse_match(left_raw, right_raw, g, p.scale, p.coarse_band, left_strip, right_strip, left_, coarse_))
+    return std::nullopt;
+  return band_from_coarse(p);
+}
+
+DisparityBand BandEstimator::band_from_coarse(const Plan& p) {
+  const int scale = p.scale;
+  const int full_hi = p.full.min_disparity + p.full.num_disparities - 1;
   cv::Sobel(left_, texture_, CV_32F, 1, 0, 3);
   texture_ = cv::abs(texture_);
   cv::blur(texture_, texture_, cv::Size(5, 5));
@@ -121,11 +142,11 @@ DisparityBand BandEstimator::estimate(const cv::Mat& left_strip, const cv::Mat& 
       if (std::isfinite(row[x]) && tex[x] >= kMinTexture) found_.push_back(row[x] * static_cast<float>(scale));
     }
   }
-  if (static_cast<double>(found_.size()) < kMinCoarseValid * static_cast<double>(coarse_.total())) return full;
+  if (static_cast<double>(found_.size()) < kMinCoarseValid * static_cast<double>(coarse_.total())) return p.full;
   const double lo = percentile(found_, kLowPercentile);
   const double hi = percentile(found_, kHighPercentile);
   const double margin = std::max({kMinMarginPx, 2.0 * scale, kSpreadMargin * (hi - lo)});
-  const int band_lo = std::clamp(static_cast<int>(std::floor(lo - margin)), full.min_disparity, full_hi);
+  const int band_lo = std::clamp(static_cast<int>(std::floor(lo - margin)), p.full.min_disparity, full_hi);
   const int band_hi = std::clamp(static_cast<int>(std::ceil(hi + margin)), band_lo, full_hi);
   return band_between(band_lo, band_hi);
 }

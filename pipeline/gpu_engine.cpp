@@ -44,9 +44,85 @@ class GpuEngine : public DisparityEngine {
     const gpu::DicParams p = dic_params(dic, left.rows);
     if (fallback_ || !gpu::check_dic_params(p).empty()) return false;
     if (!run(left, right, band, &p, disparity)) return false;
-    // Refined windows, as the CPU DIC counts them: pixels, or columns of each row block (a block's rows
-    // are all refined or all NaN).
-    stats = DicStats{};
+    stats = count_refined(p, disparity);
+    return true;
+  }
+
+  bool rectify_and_match(const cv::Mat& left_raw, const cv::Mat& right_raw, const StereoGeometry& geometry,
+                         const DisparityBand* band, const DicConfig* dic, cv::Mat& left_strip, cv::Mat& right_strip,
+                         cv::Mat& disparity, DicStats& stats) override {
+    const cv::Size strip(geometry.rectified_size().width, geometry.roi().rows);
+    if (!takes_raw(left_raw, right_raw, geometry)) return false;
+    gpu::DicParams p;
+    if (band) {
+      // A band the matcher refuses takes the caller's path, which gives the NaN disparity.
+      if (!gpu::check_sgm_input(strip.width, strip.height, {band->min_disparity, band->num_disparities}, params_)
+               .empty())
+        return false;
+      if (dic) {
+        p = dic_params(*dic, strip.height);
+        if (!gpu::check_dic_params(p).empty()) return false;
+      }
+    }
+    if (!ready(strip, band ? band->num_disparities : 0, &geometry)) return false;
+    left_strip.create(strip, CV_8UC1);
+    right_strip.create(strip, CV_8UC1);
+    if (band) disparity.create(strip, CV_32FC1);
+    const gpu::SgmBand b = band ? gpu::SgmBand{band->min_disparity, band->num_disparities} : gpu::SgmBand{};
+    int ticket = 0;
+    gpu::GpuStatus s = sgm_->submit_raw(view(left_raw), view(right_raw), band ? &b : nullptr, params_,
+                                        band && dic ? &p : nullptr, ticket);
+    const gpu::StripsOut strips{left_strip.data, right_strip.data, left_strip.step[0]};
+    if (s == gpu::GpuStatus::Ok)
+      s = sgm_->collect(ticket, band ? disparity.ptr<float>() : nullptr, band ? disparity.step1() : 0, nullptr,
+                        &strips);
+    if (s != gpu::GpuStatus::Ok) {
+      give_up(sgm_->device().name + ": " + std::string(gpu::to_string(s)));
+      return false;
+    }
+    stats = band && dic ? count_refined(p, disparity) : DicStats{};
+    return true;
+  }
+
+  bool coarse_match(const cv::Mat& left_raw, const cv::Mat& right_raw, const StereoGeometry& geometry, int scale,
+                    DisparityBand coarse_band, cv::Mat& left_strip, cv::Mat& right_strip, cv::Mat& coarse_left,
+                    cv::Mat& coarse_disparity) override {
+    const cv::Size strip(geometry.rectified_size().width, geometry.roi().rows);
+    const gpu::CoarseGrid grid = gpu::coarse_grid(strip.width, strip.height, scale);
+    const gpu::SgmBand b{coarse_band.min_disparity, coarse_band.num_disparities};
+    if (!takes_raw(left_raw, right_raw, geometry) || grid.width < 1 || grid.height < 1 ||
+        !gpu::check_sgm_input(grid.width, grid.height, b, params_).empty())
+      return false;
+    if (!ready(strip, coarse_band.num_disparities, &geometry)) return false;
+    left_strip.create(strip, CV_8UC1);
+    right_strip.create(strip, CV_8UC1);
+    coarse_left.create(grid.height, grid.width, CV_8UC1);
+    coarse_disparity.create(grid.height, grid.width, CV_32FC1);
+    gpu::StripsOut out{left_strip.data, right_strip.data, left_strip.step[0]};
+    out.coarse_left = coarse_left.data;
+    out.coarse_stride = coarse_left.step[0];
+    int ticket = 0;
+    gpu::GpuStatus s = sgm_->submit_coarse(view(left_raw), view(right_raw), scale, b, params_, ticket);
+    if (s == gpu::GpuStatus::Ok)
+      s = sgm_->collect(ticket, coarse_disparity.ptr<float>(), coarse_disparity.step1(), nullptr, &out);
+    if (s != gpu::GpuStatus::Ok) {
+      give_up(sgm_->device().name + ": " + std::string(gpu::to_string(s)));
+      return false;
+    }
+    return true;
+  }
+
+ private:
+  // Raw images the device rectifies: 8-bit, of the geometry's raw size, and a device not given up on.
+  bool takes_raw(const cv::Mat& left_raw, const cv::Mat& right_raw, const StereoGeometry& geometry) const {
+    return !fallback_ && left_raw.type() == CV_8UC1 && right_raw.type() == CV_8UC1 &&
+           left_raw.size() == geometry.raw_size() && right_raw.size() == geometry.raw_size();
+  }
+
+  // Refined windows, as the CPU DIC counts them: pixels, or columns of each row block (a block's rows
+  // are all refined or all NaN).
+  static DicStats count_refined(const gpu::DicParams& p, const cv::Mat& disparity) {
+    DicStats stats;
     if (p.column_windows) {
       const gpu::ColumnBlocks blocks(p, disparity.rows);
       for (int b = 0; b < blocks.count; ++b) {
@@ -59,10 +135,34 @@ class GpuEngine : public DisparityEngine {
         for (int x = 0; x < disparity.cols; ++x) stats.refined += !std::isnan(d[x]);
       }
     }
+    return stats;
+  }
+
+  // Device buffers for `size` and at least `disparities`, and, with a geometry, its maps loaded. Buffers are
+  // sized for the strip and the widest band seen; a new size or a wider band reallocates once (start-up,
+  // or the band estimate widening), never per frame in steady state. False after falling back.
+  bool ready(cv::Size size, int disparities, const StereoGeometry* geometry) {
+    try {
+      if (sgm_->width() != size.width || sgm_->height() != size.height || disparities > max_disparities_) {
+        max_disparities_ = std::max({max_disparities_, disparities, 128});
+        sgm_.reset();
+        maps_ = nullptr;
+        sgm_ = std::make_unique<gpu::VulkanSgm>(config_.gpu_device, size.width, size.height,
+                                                std::min(max_disparities_, gpu::kMaxDisparities));
+      }
+      if (geometry && maps_ != geometry) {
+        const cv::Size raw = geometry->raw_size();
+        sgm_->set_rectification(gpu::RectifyMaps{raw.width, raw.height, size.width, size.height, geometry->left_map(),
+                                                 geometry->right_map()});
+        maps_ = geometry;
+      }
+    } catch (const gpu::GpuError& e) {
+      give_up(e.what());
+      return false;
+    }
     return true;
   }
 
- private:
   // False when the frame went to the fallback (unrefined).
   bool run(const cv::Mat& left, const cv::Mat& right, DisparityBand band, const gpu::DicParams* dic,
            cv::Mat& disparity) {
@@ -75,18 +175,9 @@ class GpuEngine : public DisparityEngine {
       disparity.setTo(std::numeric_limits<float>::quiet_NaN());
       return true;
     }
-    // Buffers are sized for the strip and the widest band seen; a new size or a wider band reallocates
-    // once (start-up, or the band estimate widening), never per frame in steady state.
-    if (sgm_->width() != left.cols || sgm_->height() != left.rows || band.num_disparities > max_disparities_) {
-      max_disparities_ = std::max({max_disparities_, band.num_disparities, 128});
-      try {
-        sgm_.reset();
-        sgm_ = std::make_unique<gpu::VulkanSgm>(config_.gpu_device, left.cols, left.rows,
-                                                std::min(max_disparities_, gpu::kMaxDisparities));
-      } catch (const gpu::GpuError& e) {
-        fall_back(e.what(), left, right, band, disparity);
-        return false;
-      }
+    if (!ready(left.size(), band.num_disparities, nullptr)) {
+      fallback_->compute(left, right, band, disparity);
+      return false;
     }
     const gpu::GpuStatus s = sgm_->compute(view(left), view(right), {band.min_disparity, band.num_disparities}, params_,
                                            dic, disparity.ptr<float>(), disparity.step1());
@@ -96,11 +187,15 @@ class GpuEngine : public DisparityEngine {
   }
 
   // A device that failed once is not trusted again: this frame and every later one go to the reference.
-  void fall_back(const std::string& reason, const cv::Mat& left, const cv::Mat& right, DisparityBand band,
-                 cv::Mat& disparity) {
+  void give_up(const std::string& reason) {
     log_fallback(reason);
     fallback_ = std::make_unique<SgmReferenceEngine>(config_);
     sgm_.reset();
+    maps_ = nullptr;
+  }
+  void fall_back(const std::string& reason, const cv::Mat& left, const cv::Mat& right, DisparityBand band,
+                 cv::Mat& disparity) {
+    give_up(reason);
     fallback_->compute(left, right, band, disparity);
   }
 
@@ -109,6 +204,9 @@ class GpuEngine : public DisparityEngine {
   std::unique_ptr<gpu::VulkanSgm> sgm_;
   std::unique_ptr<SgmReferenceEngine> fallback_;
   int max_disparities_ = 0;
+  // The geometry whose maps sgm_ holds (set_rectification); the caller keeps it alive and unchanged while
+  // it passes it (a StereoMeasurer's own geometry).
+  const StereoGeometry* maps_ = nullptr;
 };
 #endif
 
@@ -117,6 +215,7 @@ class GpuEngine : public DisparityEngine {
 gpu::SgmParams sgm_params(const EngineConfig& c) {
   gpu::SgmParams p;
   p.paths = c.sgm_paths;
+  p.segment = c.sgm_segment;
   if (c.p1 >= 0) p.p1 = c.p1;
   if (c.p2 >= 0) p.p2 = c.p2;
   if (c.uniqueness_ratio >= 0) p.uniqueness = c.uniqueness_ratio;

@@ -78,10 +78,51 @@ bool StereoMeasurer::rectify(FrameWork& w) const {
   if (l.size() != image_size_ || r.size() != image_size_ || l.type() != r.type() || l.channels() != 1 ||
       (l.depth() != CV_8U && l.depth() != CV_16U))
     return false;
+  w.strips_ready = false;
+  if (device_rectifies(w.frame)) return true;
   const auto t0 = Clock::now();
   geometry_.rectify(l, r, w.left_strip, w.right_strip);
   w.diag.rectify_ms = ms_since(t0);
+  w.strips_ready = true;
   return true;
+}
+
+bool StereoMeasurer::device_rectifies(const StereoFrame& frame) const {
+  return config_.engine == EngineKind::Gpu && config_.rectify_on_device && frame.left.depth() == CV_8U;
+}
+
+DicConfig StereoMeasurer::strip_dic_config() const {
+  // Only the measured rows are refined; the margin rows were matched as context for the windows.
+  DicConfig dic = config_.dic_config;
+  dic.row_begin = config_.strip.row0 - geometry_.roi().row0;
+  dic.row_end = dic.row_begin + config_.strip.rows;
+  dic.column_windows = uses_column_windows(config_);
+  dic.column_block_rows = column_block_rows(config_.strip);
+  return dic;
+}
+
+bool StereoMeasurer::match_raw(FrameWork& w, MatchContext& context, DisparityBand band) const {
+  const auto t0 = Clock::now();
+  const DicConfig dic = strip_dic_config();
+  if (!context.engine->rectify_and_match(w.frame.left, w.frame.right, geometry_, &band, config_.dic ? &dic : nullptr,
+                                         w.left_strip, w.right_strip, w.disparity, w.diag.dic))
+    return false;
+  w.strips_ready = true;
+  w.diag.rectified_on_device = true;
+  w.diag.disparity_ms = ms_since(t0);
+  w.diag.dic_ms = 0;
+  w.diag.starts_reused = false;
+  return true;
+}
+
+void StereoMeasurer::rectify_late(FrameWork& w, MatchContext& context) const {
+  const auto t0 = Clock::now();
+  DicStats unused;
+  w.diag.rectified_on_device = context.engine->rectify_and_match(
+      w.frame.left, w.frame.right, geometry_, nullptr, nullptr, w.left_strip, w.right_strip, w.disparity, unused);
+  if (!w.diag.rectified_on_device) geometry_.rectify(w.frame.left, w.frame.right, w.left_strip, w.right_strip);
+  w.strips_ready = true;
+  w.diag.rectify_ms += ms_since(t0);
 }
 
 namespace {
@@ -100,20 +141,39 @@ void unbin_rows(const cv::Mat& binned, int rows, cv::Mat& disparity) {
 
 }  // namespace
 
+DisparityBand StereoMeasurer::estimate_band(FrameWork& w, MatchContext& context) const {
+  if (device_rectifies(w.frame)) {
+    const std::optional<DisparityBand> band = context.band.estimate_on_device(
+        *context.engine, w.frame.left, w.frame.right, geometry_, config_.range, w.left_strip, w.right_strip);
+    if (band) {
+      w.strips_ready = true;
+      w.diag.rectified_on_device = true;
+      w.diag.band_on_device = true;
+      return *band;
+    }
+  }
+  if (!w.strips_ready) rectify_late(w, context);
+  return context.band.estimate(w.left_strip, w.right_strip, geometry_, config_.range);
+}
+
 void StereoMeasurer::match(FrameWork& w, MatchContext& context) const {
-  auto t0 = Clock::now();
   std::optional<DisparityBand> kept = config_.fixed_band ? config_.fixed_band : context.band_tracker.band();
+  // Strips left to the engine: with a known band one device submission does everything; a band to
+  // estimate is found on the device too (rectifying there), or from strips rectified here.
+  const bool matched = !w.strips_ready && kept && match_raw(w, context, *kept);
+  if (!w.strips_ready && kept) rectify_late(w, context);
+  auto t0 = Clock::now();
   w.diag.band_estimated = !kept;
-  w.diag.band = kept ? *kept : context.band.estimate(w.left_strip, w.right_strip, geometry_, config_.range);
+  w.diag.band = kept ? *kept : estimate_band(w, context);
   w.diag.band_ms = ms_since(t0);
   const int row_begin = config_.strip.row0 - geometry_.roi().row0;
   const int row_end = row_begin + config_.strip.rows;
 
   // Starts from the last frame need a band that still fits, and nothing to be matched afresh.
-  const bool reuse = config_.dic && config_.reuse_starts && !w.diag.band_estimated &&
+  const bool reuse = !matched && config_.dic && config_.reuse_starts && !w.diag.band_estimated &&
                      context.previous.size() == w.left_strip.size() &&
                      context.reused_frames < MeasurerConfig::kMaxReusedFrames && context.engine_refined > 0;
-  match_in_band(w, context, reuse);
+  if (!matched) match_in_band(w, context, reuse);
   if (reuse && w.diag.dic.refined < MeasurerConfig::kMinReusedShare * context.engine_refined) {
     // The last frame's disparity no longer starts this one well (the terrain changed): match it again
     // from the engine, so that a reused start never costs a measurement.
@@ -129,7 +189,7 @@ void StereoMeasurer::match(FrameWork& w, MatchContext& context) const {
       // estimated for it, so that a kept band never costs a measurement.
       t0 = Clock::now();
       w.diag.band_estimated = true;
-      w.diag.band = context.band.estimate(w.left_strip, w.right_strip, geometry_, config_.range);
+      w.diag.band = estimate_band(w, context);
       w.diag.band_ms += ms_since(t0);
       const MeasurementDiagnostics first = w.diag;
       match_in_band(w, context, false);
@@ -171,12 +231,7 @@ void fill_starts(const cv::Mat& previous, cv::Mat& starts) {
 }  // namespace
 
 void StereoMeasurer::match_in_band(FrameWork& w, MatchContext& context, bool reuse) const {
-  // Only the measured rows are refined; the margin rows were matched as context for the windows.
-  DicConfig dic = config_.dic_config;
-  dic.row_begin = config_.strip.row0 - geometry_.roi().row0;
-  dic.row_end = dic.row_begin + config_.strip.rows;
-  dic.column_windows = uses_column_windows(config_);
-  dic.column_block_rows = column_block_rows(config_.strip);
+  const DicConfig dic = strip_dic_config();
 
   auto t0 = Clock::now();
   w.diag.starts_reused = false;

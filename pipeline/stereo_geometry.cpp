@@ -113,6 +113,19 @@ std::vector<Tap> make_taps(const cv::Mat& map_x, const cv::Mat& map_y, cv::Size 
   return taps;
 }
 
+// x then y of every map position, row-major (StereoGeometry::left_map()).
+std::vector<float> interleave(const cv::Mat& map_x, const cv::Mat& map_y) {
+  std::vector<float> out;
+  out.reserve(2 * map_x.total());
+  for (int r = 0; r < map_x.rows; ++r) {
+    for (int c = 0; c < map_x.cols; ++c) {
+      out.push_back(map_x.at<float>(r, c));
+      out.push_back(map_y.at<float>(r, c));
+    }
+  }
+  return out;
+}
+
 // One strip pixel from its taps; the block is clamped to the raw image only where it leaves it.
 template <typename Pixel, typename Tap>
 inline float resample_pixel(const cv::Mat& raw, const Tap& t) {
@@ -228,8 +241,10 @@ StereoGeometry::StereoGeometry(const StereoCalibration& calibration, StripRoi ro
   cv::Mat x, y;
   strip_maps(calibration.M1, calibration.D1, r.R1, r.P1, roi_, rectified_size_.width, CV_32FC1, x, y);
   left_taps_ = make_taps<SplineTap>(x, y, raw_size_);
+  left_map_ = interleave(x, y);
   strip_maps(calibration.M2, calibration.D2, r.R2, r.P2, roi_, rectified_size_.width, CV_32FC1, x, y);
   right_taps_ = make_taps<SplineTap>(x, y, raw_size_);
+  right_map_ = interleave(x, y);
 }
 
 double StereoGeometry::disparity_at(double z_mm) const {

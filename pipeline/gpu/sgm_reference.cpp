@@ -39,6 +39,8 @@ std::string check_sgm_input(int width, int height, SgmBand band, const SgmParams
   if (params.p1 < 0 || params.p2 <= params.p1 || params.p2 > kMaxP2)
     return "need 0 <= p1 < p2 <= " + std::to_string(kMaxP2);
   if (params.uniqueness < 0 || params.uniqueness > 99) return "uniqueness must be 0..99";
+  if (params.segment != 0 && params.segment < 16) return "segment must be 0 (off) or >= 16 px";
+  if (params.segment_run_in < 0) return "segment run-in must be >= 0";
   return {};
 }
 
@@ -75,13 +77,25 @@ void aggregate_reference(SgmStages& st, const SgmParams& params) {
   const auto p1 = static_cast<std::uint32_t>(params.p1), p2 = static_cast<std::uint32_t>(params.p2);
   for (int dir = 0; dir < params.paths; ++dir) {
     const int dx = kDirections[static_cast<std::size_t>(dir)][0], dy = kDirections[static_cast<std::size_t>(dir)][1];
-    for (int line = 0; line < line_count(w, h, dx, dy); ++line) {
+    // Rows in segments (SgmParams::segment): segment k keeps walk steps [k S, (k + 1) S), walked from
+    // max(0, k S - run_in).
+    const bool segmented = dy == 0 && params.segment > 0;
+    const int segments = segmented ? (w + params.segment - 1) / params.segment : 1;
+    for (int line_seg = 0; line_seg < line_count(w, h, dx, dy) * segments; ++line_seg) {
+      const int line = line_seg / segments, seg = line_seg % segments;
       int x = 0, y = 0;
       line_start(w, h, dx, dy, line, x, y);
+      int begin = 0, end = 1 << 30, keep_from = 0;
+      if (segmented) {
+        begin = std::max(0, seg * params.segment - params.segment_run_in);
+        end = std::min((seg + 1) * params.segment, w);
+        keep_from = seg * params.segment - begin;
+        x += begin * dx;
+      }
       std::fill(prev.begin(), prev.end(), kBig);
       std::fill(cur.begin(), cur.end(), kBig);
       std::uint32_t prev_min = 0;
-      for (int step = 0; x >= 0 && x < w && y >= 0 && y < h; ++step, x += dx, y += dy) {
+      for (int step = 0; x >= 0 && x < w && y >= 0 && y < h && step < end - begin; ++step, x += dx, y += dy) {
         const std::size_t p = static_cast<std::size_t>(y) * static_cast<std::size_t>(w) + static_cast<std::size_t>(x);
         const std::uint32_t cl0 = st.census_left[2 * p], cl1 = st.census_left[2 * p + 1];
         std::uint32_t cur_min = kBig;
@@ -101,7 +115,8 @@ void aggregate_reference(SgmStages& st, const SgmParams& params) {
           }
           cur[static_cast<std::size_t>(d) + 1] = l;
           cur_min = std::min(cur_min, l);
-          st.sums[p * static_cast<std::size_t>(nd) + static_cast<std::size_t>(d)] += static_cast<std::uint16_t>(l);
+          if (step >= keep_from)
+            st.sums[p * static_cast<std::size_t>(nd) + static_cast<std::size_t>(d)] += static_cast<std::uint16_t>(l);
         }
         std::swap(prev, cur);
         prev_min = cur_min;

@@ -36,8 +36,15 @@ const std::uint32_t kBsplineSpv[] =
 const std::uint32_t kDicSpv[] =
 #include "dic.comp.inc"
     ;
+const std::uint32_t kRectifySpv[] =
+#include "rectify.comp.inc"
+    ;
+const std::uint32_t kDownsampleSpv[] =
+#include "downsample.comp.inc"
+    ;
 
-constexpr std::uint32_t kTimestamps = 8;  // start, after upload, census, aggregate, wta, lr/median, dic, download
+// start, after upload, rectify, census, aggregate, wta, lr/median, dic, download
+constexpr std::uint32_t kTimestamps = 9;
 
 // A Vulkan info structure: zeroed, its type set.
 template <class T>
@@ -161,6 +168,7 @@ struct FrameBuffers {
   Buffer image_left, image_right, census_left, census_right, match_cost, disp_left, right_key, disparity;
   std::array<Buffer, 8> costs;
   Buffer spline_left, spline_right, refined;  // DIC
+  Buffer raw_left, raw_right;                 // raw images to rectify (set_rectification)
 };
 
 constexpr int kSlots = 2;
@@ -180,7 +188,7 @@ struct CostPush {
   std::int32_t width, height, min_disparity, num_disparities, words;
 };
 struct AggregatePush {
-  std::int32_t width, height, num_disparities, p1, p2, words;
+  std::int32_t width, height, num_disparities, p1, p2, words, segment, run_in;
 };
 struct WtaPush {
   std::int32_t width, height, min_disparity, num_disparities, uniqueness, paths, words;
@@ -190,6 +198,12 @@ struct LrMedianPush {
 };
 struct CensusPush {
   std::int32_t width, height, words_per_row;
+};
+struct DownsamplePush {
+  std::int32_t width, height, words_per_row, coarse_width, coarse_height, coarse_words_per_row, scale, row_factor;
+};
+struct RectifyPush {
+  std::int32_t width, height, words_per_row, raw_width, raw_height, raw_words_per_row, raw_row0;
 };
 struct DicPush {
   std::int32_t width, height, words_per_row, h, hh, max_iterations, step, row_step, first_row, columns, first_order;
@@ -234,8 +248,19 @@ std::vector<GpuDeviceInfo> list_gpu_devices() {
   return out;
 }
 
+// What a frame's command buffer starts from: packed rectified strips, or raw images rectified on the
+// device and then matched, or only rectified, or rectified and matched coarse (the band estimate).
+enum class Input { Rectified, Raw, RawOnly, RawCoarse };
+
 struct VulkanSgm::Impl {
   int width = 0, height = 0, max_disparities = 0, words_per_row = 0;
+  VkDeviceSize image_bytes = 0;  // one packed strip
+  // set_rectification: the raw size; the raw rows the maps reach, the only ones uploaded; one packed
+  // image's bytes of them; and the maps (shared by both slots).
+  int raw_width = 0, raw_height = 0, raw_words_per_row = 0, raw_row0 = 0, raw_rows = 0;
+  VkDeviceSize raw_bytes = 0;
+  Buffer map_left, map_right;
+  VkDeviceSize upload_half = 0;  // offset of the right image in a slot's upload buffer
   std::uint64_t timeout_ns = 0;
   GpuDeviceInfo info;
   VkInstance instance = VK_NULL_HANDLE;
@@ -255,28 +280,34 @@ struct VulkanSgm::Impl {
   // What a slot's command buffer was recorded for: the same frame parameters submit it again unrecorded.
   struct Recorded {
     bool valid = false, dic = false;
+    Input input = Input::Rectified;
+    int coarse_scale = 0;  // RawCoarse
     SgmBand band;
     SgmParams params;
     DicParams dic_params;
     bool operator==(const Recorded& o) const {
       const auto tie_sgm = [](const Recorded& r) {
         return std::tie(r.band.min_disparity, r.band.num_disparities, r.params.paths, r.params.p1, r.params.p2,
-                        r.params.uniqueness, r.params.lr_max_diff, r.params.median);
+                        r.params.uniqueness, r.params.lr_max_diff, r.params.median, r.params.segment,
+                        r.params.segment_run_in);
       };
       const auto tie_dic = [](const DicParams& d) {
         return std::tie(d.half_window, d.half_height, d.max_iterations, d.tolerance_px, d.step, d.row_step, d.row_begin,
                         d.row_end, d.first_order, d.max_shift_px, d.max_gradient, d.min_gradient, d.min_zncc,
                         d.max_sigma_px, d.column_windows, d.column_block_rows);
       };
-      return valid && o.valid && dic == o.dic && tie_sgm(*this) == tie_sgm(o) &&
-             (!dic || tie_dic(dic_params) == tie_dic(o.dic_params));
+      if (!valid || !o.valid || input != o.input || coarse_scale != o.coarse_scale) return false;
+      if (input == Input::RawOnly) return true;
+      return dic == o.dic && tie_sgm(*this) == tie_sgm(o) && (!dic || tie_dic(dic_params) == tie_dic(o.dic_params));
     }
   };
   struct Slot {
     FrameBuffers dev;
     Recorded recorded;
-    Buffer upload;    // host-visible: left then right image, packed words
-    Buffer download;  // host-visible: the disparity, floats
+    Buffer upload;                   // host-visible: left image at 0, right at upload_half, packed words
+    Buffer download;                 // host-visible: the disparity (floats), then both packed strips (raw input)
+    Input input = Input::Rectified;  // of the frame in flight
+    CoarseGrid grid;                 // RawCoarse: of the frame in flight
     VkCommandBuffer commands = VK_NULL_HANDLE;
     VkFence fence = VK_NULL_HANDLE;
     bool busy = false;
@@ -284,26 +315,31 @@ struct VulkanSgm::Impl {
   std::array<Slot, kSlots> slots;
   int next_slot = 0;
   Kernel census, cost, aggregate, wta, lr_median, bspline, dic, dic_columns;  // dic.comp in its two modes
+  Kernel rectify, downsample;                                                 // set_rectification
   bool lost = false;
 
   ~Impl() {
     if (device) {
       vkDeviceWaitIdle(device);
-      for (Kernel* k : {&census, &cost, &aggregate, &wta, &lr_median, &bspline, &dic, &dic_columns}) {
+      for (Kernel* k :
+           {&census, &cost, &aggregate, &wta, &lr_median, &bspline, &dic, &dic_columns, &rectify, &downsample}) {
         vkDestroyPipeline(device, k->pipeline, nullptr);
         vkDestroyPipelineLayout(device, k->layout, nullptr);
         vkDestroyDescriptorSetLayout(device, k->set_layout, nullptr);
       }
       for (Slot& s : slots) {
         FrameBuffers& f = s.dev;
-        for (Buffer* b : {&f.image_left, &f.image_right, &f.census_left, &f.census_right, &f.match_cost, &f.disp_left,
-                          &f.right_key, &f.disparity, &f.spline_left, &f.spline_right, &f.refined})
+        for (Buffer* b :
+             {&f.image_left, &f.image_right, &f.census_left, &f.census_right, &f.match_cost, &f.disp_left, &f.right_key,
+              &f.disparity, &f.spline_left, &f.spline_right, &f.refined, &f.raw_left, &f.raw_right})
           destroy(*b);
         for (Buffer& b : f.costs) destroy(b);
         destroy(s.upload);
         destroy(s.download);
         vkDestroyFence(device, s.fence, nullptr);
       }
+      destroy(map_left);
+      destroy(map_right);
       vkDestroyQueryPool(device, queries, nullptr);
       vkDestroyDescriptorPool(device, descriptors, nullptr);
       vkDestroyCommandPool(device, pool, nullptr);
@@ -431,7 +467,7 @@ struct VulkanSgm::Impl {
   // ..., where it has them.
   template <class BindingsOf>
   Kernel make_kernel(const std::uint32_t* spv, std::size_t bytes, std::uint32_t push_bytes, BindingsOf bindings_of,
-                     const std::vector<std::int32_t>& spec = {}) {
+                     const std::vector<std::int32_t>& spec = {}, VkPipelineCreateFlags flags = 0) {
     const Bindings bindings = bindings_of(slots[0].dev);
     Kernel k;
     std::vector<VkDescriptorSetLayoutBinding> lb(bindings.size());
@@ -468,6 +504,7 @@ struct VulkanSgm::Impl {
                                          spec.size() * sizeof(std::int32_t), spec.data()};
     if (!spec.empty()) ci.stage.pSpecializationInfo = &spec_info;
     ci.layout = k.layout;
+    ci.flags = flags;
     const VkResult r = vkCreateComputePipelines(device, VK_NULL_HANDLE, 1, &ci, nullptr, &k.pipeline);
     vkDestroyShaderModule(device, module, nullptr);
     check(r, "vkCreateComputePipelines");
@@ -501,7 +538,8 @@ struct VulkanSgm::Impl {
   void setup() {
     words_per_row = (width + 3) / 4;
     const auto pixels = static_cast<VkDeviceSize>(width) * static_cast<VkDeviceSize>(height);
-    const VkDeviceSize image_bytes = static_cast<VkDeviceSize>(words_per_row) * static_cast<VkDeviceSize>(height) * 4;
+    image_bytes = static_cast<VkDeviceSize>(words_per_row) * static_cast<VkDeviceSize>(height) * 4;
+    upload_half = image_bytes;
     const VkBufferUsageFlags storage =
         VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_SRC_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT;
     // One volume per direction, so that each stays within the device's range for one storage buffer.
@@ -532,7 +570,8 @@ struct VulkanSgm::Impl {
     check(vkCreateCommandPool(device, &pi, nullptr, &pool), "vkCreateCommandPool");
     for (Slot& s : slots) {
       s.upload = make_buffer(image_bytes * 2, VK_BUFFER_USAGE_TRANSFER_SRC_BIT, true);
-      s.download = make_buffer(pixels * 4, VK_BUFFER_USAGE_TRANSFER_DST_BIT, true);
+      // The disparity, both strips, and (band estimate) the coarse left image.
+      s.download = make_buffer(pixels * 4 + 3 * image_bytes, VK_BUFFER_USAGE_TRANSFER_DST_BIT, true);
       auto ai = info_struct<VkCommandBufferAllocateInfo>(VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO);
       ai.commandPool = pool;
       ai.level = VK_COMMAND_BUFFER_LEVEL_PRIMARY;
@@ -547,9 +586,10 @@ struct VulkanSgm::Impl {
       qi.queryCount = kTimestamps * kSlots;
       check(vkCreateQueryPool(device, &qi, nullptr, &queries), "vkCreateQueryPool");
     }
-    const VkDescriptorPoolSize size{VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 48 * kSlots};
+    // Room for every kernel's sets, set_rectification's included.
+    const VkDescriptorPoolSize size{VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 64 * kSlots};
     auto dpi = info_struct<VkDescriptorPoolCreateInfo>(VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO);
-    dpi.maxSets = 8 * kSlots;
+    dpi.maxSets = 12 * kSlots;
     dpi.poolSizeCount = 1;
     dpi.pPoolSizes = &size;
     check(vkCreateDescriptorPool(device, &dpi, nullptr, &descriptors), "vkCreateDescriptorPool");
@@ -570,11 +610,12 @@ struct VulkanSgm::Impl {
                              ? aggregate_threads
                              : static_cast<std::int32_t>(std::clamp<std::uint32_t>(subgroup_size, 4, 128));
     const std::int32_t words_each = (cost_words(max_disparities) + threads - 1) / threads;
-    aggregate = make_kernel(kAggregateSpv, sizeof kAggregateSpv, sizeof(AggregatePush),
-                            [&](const FrameBuffers& f) -> Bindings {
-                              return {{&f.match_cost}, all_costs(f)};
-                            },
-                            {threads, words_each});
+    aggregate = make_kernel(
+        kAggregateSpv, sizeof kAggregateSpv, sizeof(AggregatePush),
+        [&](const FrameBuffers& f) -> Bindings {
+          return {{&f.match_cost}, all_costs(f)};
+        },
+        {threads, words_each}, VK_PIPELINE_CREATE_DISPATCH_BASE_BIT);
     wta = make_kernel(kWtaSpv, sizeof kWtaSpv, sizeof(WtaPush), [&](const FrameBuffers& f) -> Bindings {
       return {all_costs(f), {&f.disp_left}, {&f.right_key}};
     });
@@ -616,7 +657,8 @@ struct VulkanSgm::Impl {
     vkCmdDispatch(cb, x, y, z);
   }
 
-  VkResult record(int slot, SgmBand band, const SgmParams& params, const DicParams* dic_params) {
+  VkResult record(int slot, Input input, SgmBand band, const SgmParams& params, const DicParams* dic_params,
+                  const CoarseGrid& grid) {
     const VkCommandBuffer cb = slots[static_cast<std::size_t>(slot)].commands;
     constexpr VkPipelineStageFlags compute = VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT;
     constexpr VkPipelineStageFlags transfer = VK_PIPELINE_STAGE_TRANSFER_BIT;
@@ -630,41 +672,86 @@ struct VulkanSgm::Impl {
     const FrameBuffers& f = slots[static_cast<std::size_t>(slot)].dev;
     stamp(cb, slot, 0);
     const Buffer& up = slots[static_cast<std::size_t>(slot)].upload;
-    const VkDeviceSize half = up.size / 2;
-    VkBufferCopy copy{0, 0, half};
-    vkCmdCopyBuffer(cb, up.buffer, f.image_left.buffer, 1, &copy);
-    copy.srcOffset = half;
-    vkCmdCopyBuffer(cb, up.buffer, f.image_right.buffer, 1, &copy);
-    // wta.comp takes the minimum key per right pixel with atomics; lr_median.comp reads none as no match.
-    vkCmdFillBuffer(cb, f.right_key.buffer, 0, VK_WHOLE_SIZE, kNoMatch);
-    if (dic_params) vkCmdFillBuffer(cb, f.refined.buffer, 0, VK_WHOLE_SIZE, kNanBits);  // pixels not refined
+    const Buffer& down = slots[static_cast<std::size_t>(slot)].download;
+    const bool raw = input != Input::Rectified;
+    const VkDeviceSize bytes = raw ? raw_bytes : image_bytes;
+    VkBufferCopy copy{0, 0, bytes};
+    vkCmdCopyBuffer(cb, up.buffer, (raw ? f.raw_left : f.image_left).buffer, 1, &copy);
+    copy.srcOffset = upload_half;
+    vkCmdCopyBuffer(cb, up.buffer, (raw ? f.raw_right : f.image_right).buffer, 1, &copy);
+    if (input != Input::RawOnly) {
+      // wta.comp takes the minimum key per right pixel with atomics; lr_median.comp reads none as no match.
+      vkCmdFillBuffer(cb, f.right_key.buffer, 0, VK_WHOLE_SIZE, kNoMatch);
+      if (dic_params) vkCmdFillBuffer(cb, f.refined.buffer, 0, VK_WHOLE_SIZE, kNanBits);  // pixels not refined
+    }
     barrier(cb, transfer, compute);
     stamp(cb, slot, 1);
-    dispatch(cb, slot, census, CensusPush{width, height, words_per_row}, groups(width, 16), groups(height, 8), 2);
-    if (dic_params)
-      dispatch(cb, slot, bspline, CensusPush{width, height, words_per_row}, groups(width, 64),
-               static_cast<std::uint32_t>(height), 2);
-    barrier(cb, compute, compute);
+    const VkDeviceSize strips_at = static_cast<VkDeviceSize>(width) * static_cast<VkDeviceSize>(height) * 4;
+    if (raw) {
+      dispatch(cb, slot, rectify,
+               RectifyPush{width, height, words_per_row, raw_width, raw_height, raw_words_per_row, raw_row0},
+               groups(words_per_row, 64), static_cast<std::uint32_t>(height), 2);
+      barrier(cb, compute, compute | transfer);
+      // The strips go back for the host's frame checks, copied while the matcher runs.
+      copy = VkBufferCopy{0, strips_at, image_bytes};
+      vkCmdCopyBuffer(cb, f.image_left.buffer, down.buffer, 1, &copy);
+      copy.dstOffset = strips_at + image_bytes;
+      vkCmdCopyBuffer(cb, f.image_right.buffer, down.buffer, 1, &copy);
+    }
+    // The matcher's size: the strips', or the coarse images' (band estimate), which replace the strips in
+    // their buffers once the strips are on their way to the host.
+    int w = width, h = height, wpr = words_per_row;
+    if (input == Input::RawCoarse) {
+      w = grid.width;
+      h = grid.height;
+      wpr = (w + 3) / 4;
+      dispatch(cb, slot, downsample,
+               DownsamplePush{width, height, words_per_row, w, h, wpr, grid.scale, grid.row_factor}, groups(wpr, 64),
+               static_cast<std::uint32_t>(h), 2);
+      barrier(cb, compute | transfer, transfer);
+      copy = VkBufferCopy{0, 0, static_cast<VkDeviceSize>(wpr) * static_cast<VkDeviceSize>(h) * 4};
+      vkCmdCopyBuffer(cb, f.census_left.buffer, f.image_left.buffer, 1, &copy);
+      vkCmdCopyBuffer(cb, f.census_right.buffer, f.image_right.buffer, 1, &copy);
+      barrier(cb, transfer, compute | transfer);
+      copy.dstOffset = strips_at + 2 * image_bytes;
+      vkCmdCopyBuffer(cb, f.image_left.buffer, down.buffer, 1, &copy);
+    }
     stamp(cb, slot, 2);
-    const int lines = params.paths == 2 ? height : params.paths == 4 ? std::max(width, height) : width + height - 1;
-    const int words = cost_words(band.num_disparities);
-    dispatch(cb, slot, cost, CostPush{width, height, band.min_disparity, band.num_disparities, words},
-             groups(width * words, 64), static_cast<std::uint32_t>(height), 1);
-    barrier(cb, compute, compute);
-    dispatch(cb, slot, aggregate, AggregatePush{width, height, band.num_disparities, params.p1, params.p2, words},
-             static_cast<std::uint32_t>(lines), static_cast<std::uint32_t>(params.paths), 1);
+    if (input == Input::RawOnly) {
+      barrier(cb, transfer, VK_PIPELINE_STAGE_HOST_BIT);
+      for (std::uint32_t i = 3; i < kTimestamps; ++i) stamp(cb, slot, i);
+      return vkEndCommandBuffer(cb);
+    }
+    dispatch(cb, slot, census, CensusPush{w, h, wpr}, groups(w, 16), groups(h, 8), 2);
+    if (dic_params) dispatch(cb, slot, bspline, CensusPush{w, h, wpr}, groups(w, 64), static_cast<std::uint32_t>(h), 2);
     barrier(cb, compute, compute);
     stamp(cb, slot, 3);
-    dispatch(cb, slot, wta,
-             WtaPush{width, height, band.min_disparity, band.num_disparities, params.uniqueness, params.paths, words},
-             groups(width, kWtaSegment), static_cast<std::uint32_t>(height), 1);
+    const int lines = params.paths == 2 ? h : params.paths == 4 ? std::max(w, h) : w + h - 1;
+    const int words = cost_words(band.num_disparities);
+    dispatch(cb, slot, cost, CostPush{w, h, band.min_disparity, band.num_disparities, words}, groups(w * words, 64),
+             static_cast<std::uint32_t>(h), 1);
+    barrier(cb, compute, compute);
+    // Workgroups (line, direction, segment): the two horizontal directions (0, 1) have a segment per
+    // workgroup z when rows are segmented; the others one, dispatched on their own from direction 2.
+    const int segments = params.segment > 0 ? (w + params.segment - 1) / params.segment : 1;
+    const AggregatePush agg{w,         h,     band.num_disparities, params.p1,
+                            params.p2, words, params.segment,       params.segment_run_in};
+    dispatch(cb, slot, aggregate, agg, static_cast<std::uint32_t>(h), 2, static_cast<std::uint32_t>(segments));
+    if (params.paths > 2) {
+      vkCmdDispatchBase(cb, 0, 2, 0, static_cast<std::uint32_t>(lines), static_cast<std::uint32_t>(params.paths - 2),
+                        1);
+    }
     barrier(cb, compute, compute);
     stamp(cb, slot, 4);
-    dispatch(cb, slot, lr_median,
-             LrMedianPush{width, height, params.lr_max_diff, params.median ? 1 : 0, band.min_disparity},
-             groups(width, 64), static_cast<std::uint32_t>(height), 1);
-    barrier(cb, compute, compute | transfer);
+    dispatch(cb, slot, wta,
+             WtaPush{w, h, band.min_disparity, band.num_disparities, params.uniqueness, params.paths, words},
+             groups(w, kWtaSegment), static_cast<std::uint32_t>(h), 1);
+    barrier(cb, compute, compute);
     stamp(cb, slot, 5);
+    dispatch(cb, slot, lr_median, LrMedianPush{w, h, params.lr_max_diff, params.median ? 1 : 0, band.min_disparity},
+             groups(w, 64), static_cast<std::uint32_t>(h), 1);
+    barrier(cb, compute, compute | transfer);
+    stamp(cb, slot, 6);
     if (dic_params) {
       // One subgroup per window (dic.comp), at most 64 / subgroup_size of them per workgroup; a subgroup
       // smaller than the reported size only means fewer workgroups would have done.
@@ -707,12 +794,11 @@ struct VulkanSgm::Impl {
       }
       barrier(cb, compute, transfer);
     }
-    stamp(cb, slot, 6);
-    const Buffer& down = slots[static_cast<std::size_t>(slot)].download;
-    copy = VkBufferCopy{0, 0, down.size};
+    stamp(cb, slot, 7);
+    copy = VkBufferCopy{0, 0, static_cast<VkDeviceSize>(w) * static_cast<VkDeviceSize>(h) * 4};
     vkCmdCopyBuffer(cb, (dic_params ? f.refined : f.disparity).buffer, down.buffer, 1, &copy);
     barrier(cb, transfer, VK_PIPELINE_STAGE_HOST_BIT);
-    stamp(cb, slot, 7);
+    stamp(cb, slot, 8);
     return vkEndCommandBuffer(cb);
   }
 
@@ -722,34 +808,54 @@ struct VulkanSgm::Impl {
     return s;
   }
 
-  // Test path: copies a device buffer back through a temporary host buffer.
-  VkResult read_back(const Buffer& src, void* dst, std::size_t bytes) {
-    Buffer tmp = make_buffer(bytes, VK_BUFFER_USAGE_TRANSFER_DST_BIT, true);
+  // One copy between buffers, waited for (start-up and test paths only).
+  VkResult copy_now(const Buffer& src, const Buffer& dst, std::size_t bytes) {
     auto ai = info_struct<VkCommandBufferAllocateInfo>(VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO);
     ai.commandPool = pool;
     ai.level = VK_COMMAND_BUFFER_LEVEL_PRIMARY;
     ai.commandBufferCount = 1;
     VkCommandBuffer cb = VK_NULL_HANDLE;
     VkResult r = vkAllocateCommandBuffers(device, &ai, &cb);
+    if (r != VK_SUCCESS) return r;
+    auto bi = info_struct<VkCommandBufferBeginInfo>(VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO);
+    r = vkBeginCommandBuffer(cb, &bi);
     if (r == VK_SUCCESS) {
-      auto bi = info_struct<VkCommandBufferBeginInfo>(VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO);
-      vkBeginCommandBuffer(cb, &bi);
-      barrier(cb, VK_PIPELINE_STAGE_ALL_COMMANDS_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT);
+      barrier(cb, VK_PIPELINE_STAGE_ALL_COMMANDS_BIT | VK_PIPELINE_STAGE_HOST_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT);
       const VkBufferCopy copy{0, 0, bytes};
-      vkCmdCopyBuffer(cb, src.buffer, tmp.buffer, 1, &copy);
-      barrier(cb, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_PIPELINE_STAGE_HOST_BIT);
+      vkCmdCopyBuffer(cb, src.buffer, dst.buffer, 1, &copy);
+      barrier(cb, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_PIPELINE_STAGE_ALL_COMMANDS_BIT | VK_PIPELINE_STAGE_HOST_BIT);
       r = vkEndCommandBuffer(cb);
-      auto si = info_struct<VkSubmitInfo>(VK_STRUCTURE_TYPE_SUBMIT_INFO);
-      si.commandBufferCount = 1;
-      si.pCommandBuffers = &cb;
-      if (r == VK_SUCCESS) r = vkQueueSubmit(queue, 1, &si, VK_NULL_HANDLE);
-      if (r == VK_SUCCESS) r = vkQueueWaitIdle(queue);
-      if (r == VK_SUCCESS) std::memcpy(dst, tmp.mapped, bytes);
-      vkFreeCommandBuffers(device, pool, 1, &cb);
     }
+    auto si = info_struct<VkSubmitInfo>(VK_STRUCTURE_TYPE_SUBMIT_INFO);
+    si.commandBufferCount = 1;
+    si.pCommandBuffers = &cb;
+    if (r == VK_SUCCESS) r = vkQueueSubmit(queue, 1, &si, VK_NULL_HANDLE);
+    if (r == VK_SUCCESS) r = vkQueueWaitIdle(queue);
+    vkFreeCommandBuffers(device, pool, 1, &cb);
+    return r;
+  }
+
+  // Test path: copies a device buffer back through a temporary host buffer.
+  VkResult read_back(const Buffer& src, void* dst, std::size_t bytes) {
+    Buffer tmp = make_buffer(bytes, VK_BUFFER_USAGE_TRANSFER_DST_BIT, true);
+    const VkResult r = copy_now(src, tmp, bytes);
+    if (r == VK_SUCCESS) std::memcpy(dst, tmp.mapped, bytes);
     destroy(tmp);
     return r;
   }
+
+  // Start-up path: host data into a device buffer through a temporary host buffer.
+  VkResult write_to(const Buffer& dst, const void* src, std::size_t bytes) {
+    Buffer tmp = make_buffer(bytes, VK_BUFFER_USAGE_TRANSFER_SRC_BIT, true);
+    std::memcpy(tmp.mapped, src, bytes);
+    const VkResult r = copy_now(tmp, dst, bytes);
+    destroy(tmp);
+    return r;
+  }
+
+  // grid: RawCoarse only.
+  GpuStatus submit(const ImageView& left, const ImageView& right, Input input, SgmBand band, const SgmParams& params,
+                   const DicParams* dic, int& ticket, const CoarseGrid& grid = {});
 };
 
 VulkanSgm::VulkanSgm(const std::string& device, int width, int height, int max_disparities, int timeout_ms,
@@ -783,50 +889,141 @@ const GpuDeviceInfo& VulkanSgm::device() const { return impl_->info; }
 int VulkanSgm::width() const { return impl_->width; }
 int VulkanSgm::height() const { return impl_->height; }
 
-GpuStatus VulkanSgm::submit(const ImageView& left, const ImageView& right, SgmBand band, const SgmParams& params,
-                            const DicParams* dic, int& ticket) {
+void VulkanSgm::set_rectification(const RectifyMaps& maps) {
   Impl& m = *impl_;
-  if (m.lost) return GpuStatus::DeviceLost;
-  if (left.width != m.width || left.height != m.height || right.width != m.width || right.height != m.height ||
-      !left.data || !right.data || band.num_disparities > m.max_disparities ||
-      !check_sgm_input(m.width, m.height, band, params).empty() || (dic && !check_dic_params(*dic).empty()))
+  const std::string error = check_rectify_maps(maps, m.width, m.height);
+  if (!error.empty()) throw GpuError(m.info.name + ": " + error);
+  if (m.lost) throw GpuError(m.info.name + ": device lost");
+  const VkResult idle = vkDeviceWaitIdle(m.device);
+  if (idle != VK_SUCCESS) throw GpuError(m.info.name + ": vkDeviceWaitIdle: " + result_name(idle));
+  m.raw_width = maps.raw_width;
+  m.raw_height = maps.raw_height;
+  m.raw_words_per_row = (maps.raw_width + 3) / 4;
+  // The rows the B-spline taps read (rectify.comp): a strip of a full image needs a band of rows only, and
+  // only that band is packed and uploaded per frame.
+  const std::array<int, 2> rows = rectify_rows(maps);
+  m.raw_row0 = rows[0];
+  m.raw_rows = rows[1] - rows[0];
+  m.raw_bytes = static_cast<VkDeviceSize>(m.raw_words_per_row) * static_cast<VkDeviceSize>(m.raw_rows) * 4;
+  const VkBufferUsageFlags storage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT;
+  const VkDeviceSize map_bytes = maps.left.size() * sizeof(float);
+  try {
+    for (Buffer* b : {&m.map_left, &m.map_right}) {
+      m.destroy(*b);
+      *b = m.make_buffer(map_bytes, storage, false);
+    }
+    m.upload_half = std::max(m.image_bytes, m.raw_bytes);
+    for (Impl::Slot& s : m.slots) {
+      for (Buffer* b : {&s.dev.raw_left, &s.dev.raw_right}) {
+        m.destroy(*b);
+        *b = m.make_buffer(m.raw_bytes, storage, false);
+      }
+      m.destroy(s.upload);
+      s.upload = m.make_buffer(2 * m.upload_half, VK_BUFFER_USAGE_TRANSFER_SRC_BIT, true);
+      s.recorded = Impl::Recorded{};  // the upload layout changed
+    }
+    // The maps go up once.
+    for (auto [map, dst] : {std::pair{&maps.left, &m.map_left}, std::pair{&maps.right, &m.map_right}}) {
+      const VkResult r = m.write_to(*dst, map->data(), map_bytes);
+      if (r != VK_SUCCESS) throw GpuError("uploading the rectification maps: " + result_name(r));
+    }
+    if (!m.downsample.pipeline) {
+      m.downsample = m.make_kernel(kDownsampleSpv, sizeof kDownsampleSpv, sizeof(DownsamplePush),
+                                   [](const FrameBuffers& f) -> Bindings {
+                                     return {{&f.image_left}, {&f.image_right}, {&f.census_left}, {&f.census_right}};
+                                   });
+    }
+    if (!m.rectify.pipeline) {
+      m.rectify =
+          m.make_kernel(kRectifySpv, sizeof kRectifySpv, sizeof(RectifyPush), [&m](const FrameBuffers& f) -> Bindings {
+            return {{&f.raw_left}, {&f.raw_right}, {&m.map_left}, {&m.map_right}, {&f.image_left}, {&f.image_right}};
+          });
+    } else {
+      for (int slot = 0; slot < kSlots; ++slot) {
+        const FrameBuffers& f = m.slots[static_cast<std::size_t>(slot)].dev;
+        m.write_set(m.rectify.sets[static_cast<std::size_t>(slot)],
+                    {{&f.raw_left}, {&f.raw_right}, {&m.map_left}, {&m.map_right}, {&f.image_left}, {&f.image_right}});
+      }
+    }
+  } catch (const GpuError& e) {
+    throw GpuError(m.info.name + ": " + e.what());
+  }
+}
+
+GpuStatus VulkanSgm::Impl::submit(const ImageView& left, const ImageView& right, Input input, SgmBand band,
+                                  const SgmParams& params, const DicParams* dic, int& ticket, const CoarseGrid& grid) {
+  if (lost) return GpuStatus::DeviceLost;
+  const bool raw = input != Input::Rectified;
+  const int w = raw ? raw_width : width, h = raw ? raw_height : height;
+  if ((raw && raw_bytes == 0) || left.width != w || left.height != h || right.width != w || right.height != h ||
+      !left.data || !right.data)
     return GpuStatus::InvalidInput;
-  ticket = m.next_slot;
-  Impl::Slot& slot = m.slots[static_cast<std::size_t>(ticket)];
+  const bool coarse = input == Input::RawCoarse;
+  if (coarse && (grid.scale < 1 || grid.row_factor < 1 || grid.width < 1 || grid.height < 1 ||
+                 grid.width * grid.scale > width || grid.height * grid.row_factor > height || dic))
+    return GpuStatus::InvalidInput;
+  if (input != Input::RawOnly &&
+      (band.num_disparities > max_disparities ||
+       !check_sgm_input(coarse ? grid.width : width, coarse ? grid.height : height, band, params).empty() ||
+       (dic && !check_dic_params(*dic).empty())))
+    return GpuStatus::InvalidInput;
+  ticket = next_slot;
+  Slot& slot = slots[static_cast<std::size_t>(ticket)];
   if (slot.busy) return GpuStatus::InvalidInput;  // two frames already in flight
   // Pack both images into the upload buffer: words of four pixels, rows padded to whole words.
   auto* words = static_cast<std::uint8_t*>(slot.upload.mapped);
-  const std::size_t row_bytes = static_cast<std::size_t>(m.words_per_row) * 4;
-  const std::size_t half = static_cast<std::size_t>(slot.upload.size / 2);
+  const std::size_t row_bytes = static_cast<std::size_t>(raw ? raw_words_per_row : words_per_row) * 4;
+  const int row0 = raw ? raw_row0 : 0, rows = raw ? raw_rows : h;
   for (int i = 0; i < 2; ++i) {
     const ImageView& im = i == 0 ? left : right;
-    for (int y = 0; y < m.height; ++y) {
-      std::uint8_t* row = words + static_cast<std::size_t>(i) * half + static_cast<std::size_t>(y) * row_bytes;
-      std::memcpy(row, im.data + static_cast<std::size_t>(y) * im.stride, static_cast<std::size_t>(m.width));
-      std::memset(row + m.width, 0, row_bytes - static_cast<std::size_t>(m.width));
+    for (int y = 0; y < rows; ++y) {
+      std::uint8_t* row = words + static_cast<std::size_t>(i) * upload_half + static_cast<std::size_t>(y) * row_bytes;
+      std::memcpy(row, im.data + static_cast<std::size_t>(row0 + y) * im.stride, static_cast<std::size_t>(w));
+      std::memset(row + w, 0, row_bytes - static_cast<std::size_t>(w));
     }
   }
-  Impl::Recorded wanted{true, dic != nullptr, band, params, dic ? *dic : DicParams{}};
+  Recorded wanted{true, dic != nullptr, input, coarse ? grid.scale : 0, band, params, dic ? *dic : DicParams{}};
   VkResult r = VK_SUCCESS;
   if (!(slot.recorded == wanted)) {
-    slot.recorded = Impl::Recorded{};
-    r = m.record(ticket, band, params, dic);
+    slot.recorded = Recorded{};
+    r = record(ticket, input, band, params, dic, grid);
     if (r == VK_SUCCESS) slot.recorded = wanted;
   }
-  if (r == VK_SUCCESS) r = vkResetFences(m.device, 1, &slot.fence);
+  if (r == VK_SUCCESS) r = vkResetFences(device, 1, &slot.fence);
   if (r == VK_SUCCESS) {
     auto si = info_struct<VkSubmitInfo>(VK_STRUCTURE_TYPE_SUBMIT_INFO);
     si.commandBufferCount = 1;
     si.pCommandBuffers = &slot.commands;
-    r = vkQueueSubmit(m.queue, 1, &si, slot.fence);
+    r = vkQueueSubmit(queue, 1, &si, slot.fence);
   }
-  if (r != VK_SUCCESS) return m.fail(r);
+  if (r != VK_SUCCESS) return fail(r);
   slot.busy = true;
-  m.next_slot = (m.next_slot + 1) % kSlots;
+  slot.input = input;
+  slot.grid = grid;
+  next_slot = (next_slot + 1) % kSlots;
   return GpuStatus::Ok;
 }
 
-GpuStatus VulkanSgm::collect(int ticket, float* disparity, std::size_t stride, GpuStageTimes* times) {
+GpuStatus VulkanSgm::submit(const ImageView& left, const ImageView& right, SgmBand band, const SgmParams& params,
+                            const DicParams* dic, int& ticket) {
+  return impl_->submit(left, right, Input::Rectified, band, params, dic, ticket);
+}
+
+GpuStatus VulkanSgm::submit_raw(const ImageView& left_raw, const ImageView& right_raw, const SgmBand* band,
+                                const SgmParams& params, const DicParams* dic, int& ticket) {
+  return impl_->submit(left_raw, right_raw, band ? Input::Raw : Input::RawOnly, band ? *band : SgmBand{}, params,
+                       band ? dic : nullptr, ticket);
+}
+
+GpuStatus VulkanSgm::submit_coarse(const ImageView& left_raw, const ImageView& right_raw, int scale, SgmBand band,
+                                   const SgmParams& params, int& ticket) {
+  Impl& m = *impl_;
+  return m.submit(left_raw, right_raw, Input::RawCoarse, band, params, nullptr, ticket,
+                  coarse_grid(m.width, m.height, scale));
+}
+
+GpuStatus VulkanSgm::collect(int ticket, float* disparity, std::size_t stride, GpuStageTimes* times,
+                             const StripsOut* strips) {
   Impl& m = *impl_;
   if (ticket < 0 || ticket >= kSlots || !m.slots[static_cast<std::size_t>(ticket)].busy) return GpuStatus::InvalidInput;
   Impl::Slot& slot = m.slots[static_cast<std::size_t>(ticket)];
@@ -842,11 +1039,38 @@ GpuStatus VulkanSgm::collect(int ticket, float* disparity, std::size_t stride, G
     return m.fail(r);
   }
   slot.busy = false;
-  const auto* src = static_cast<const float*>(slot.download.mapped);
-  for (int y = 0; y < m.height; ++y)
-    std::memcpy(disparity + static_cast<std::size_t>(y) * stride,
-                src + static_cast<std::size_t>(y) * static_cast<std::size_t>(m.width),
-                static_cast<std::size_t>(m.width) * sizeof(float));
+  // A request the frame cannot answer: checked after the wait, so the slot is free again either way.
+  if ((strips && slot.input == Input::Rectified) || (!disparity && slot.input != Input::RawOnly))
+    return GpuStatus::InvalidInput;
+  const std::size_t pixels = static_cast<std::size_t>(m.width) * static_cast<std::size_t>(m.height);
+  const bool coarse = slot.input == Input::RawCoarse;
+  if (disparity && slot.input != Input::RawOnly) {
+    const auto* src = static_cast<const float*>(slot.download.mapped);
+    const int w = coarse ? slot.grid.width : m.width, h = coarse ? slot.grid.height : m.height;
+    for (int y = 0; y < h; ++y)
+      std::memcpy(disparity + static_cast<std::size_t>(y) * stride,
+                  src + static_cast<std::size_t>(y) * static_cast<std::size_t>(w),
+                  static_cast<std::size_t>(w) * sizeof(float));
+  }
+  if (coarse && strips && strips->coarse_left) {
+    const auto* src = static_cast<const std::uint8_t*>(slot.download.mapped) + pixels * 4 + 2 * m.image_bytes;
+    const auto row_bytes = static_cast<std::size_t>((slot.grid.width + 3) / 4) * 4;
+    for (int y = 0; y < slot.grid.height; ++y)
+      std::memcpy(strips->coarse_left + static_cast<std::size_t>(y) * strips->coarse_stride,
+                  src + static_cast<std::size_t>(y) * row_bytes, static_cast<std::size_t>(slot.grid.width));
+  }
+  if (strips) {
+    const auto* packed = static_cast<const std::uint8_t*>(slot.download.mapped) + pixels * 4;
+    const std::size_t row_bytes = static_cast<std::size_t>(m.words_per_row) * 4;
+    for (int i = 0; i < 2; ++i) {
+      std::uint8_t* dst = i == 0 ? strips->left : strips->right;
+      if (!dst) continue;
+      const std::uint8_t* src = packed + static_cast<std::size_t>(i) * static_cast<std::size_t>(m.image_bytes);
+      for (int y = 0; y < m.height; ++y)
+        std::memcpy(dst + static_cast<std::size_t>(y) * strips->stride, src + static_cast<std::size_t>(y) * row_bytes,
+                    static_cast<std::size_t>(m.width));
+    }
+  }
   if (times) {
     *times = GpuStageTimes{};
     std::array<std::uint64_t, kTimestamps> t{};
@@ -857,7 +1081,7 @@ GpuStatus VulkanSgm::collect(int ticket, float* disparity, std::size_t stride, G
         return static_cast<double>(t[static_cast<std::size_t>(b)] - t[static_cast<std::size_t>(a)]) * m.timestamp_ns *
                1e-6;
       };
-      *times = GpuStageTimes{ms(0, 1), ms(1, 2), ms(2, 3), ms(3, 4), ms(4, 5), ms(5, 6), ms(6, 7)};
+      *times = GpuStageTimes{ms(0, 1), ms(1, 2), ms(2, 3), ms(3, 4), ms(4, 5), ms(5, 6), ms(6, 7), ms(7, 8)};
     }
   }
   return GpuStatus::Ok;
@@ -872,7 +1096,7 @@ GpuStatus VulkanSgm::compute(const ImageView& left, const ImageView& right, SgmB
 }
 
 GpuStatus VulkanSgm::compute_stages(const ImageView& left, const ImageView& right, SgmBand band,
-                                    const SgmParams& params, const DicParams* dic, SgmStages& st) {
+                                    const SgmParams& params, const DicParams* dic, SgmStages& st, bool raw) {
   Impl& m = *impl_;
   const auto pixels = static_cast<std::size_t>(m.width) * static_cast<std::size_t>(m.height);
   st.width = m.width;
@@ -882,10 +1106,20 @@ GpuStatus VulkanSgm::compute_stages(const ImageView& left, const ImageView& righ
   st.refined.clear();
   st.spline_left.clear();
   st.spline_right.clear();
+  st.rectified_left.clear();
+  st.rectified_right.clear();
   std::vector<float> out(pixels);
   int ticket = 0;
-  GpuStatus s = submit(left, right, band, params, dic, ticket);
-  if (s == GpuStatus::Ok) s = collect(ticket, out.data(), static_cast<std::size_t>(m.width));
+  GpuStatus s =
+      raw ? submit_raw(left, right, &band, params, dic, ticket) : submit(left, right, band, params, dic, ticket);
+  StripsOut strips;
+  if (raw) {
+    st.rectified_left.resize(pixels);
+    st.rectified_right.resize(pixels);
+    strips = StripsOut{st.rectified_left.data(), st.rectified_right.data(), static_cast<std::size_t>(m.width)};
+  }
+  if (s == GpuStatus::Ok)
+    s = collect(ticket, out.data(), static_cast<std::size_t>(m.width), nullptr, raw ? &strips : nullptr);
   if (s != GpuStatus::Ok) return s;
   const FrameBuffers& f = m.slots[static_cast<std::size_t>(ticket)].dev;
   if (dic) {

@@ -10,6 +10,7 @@
 
 #include <gtest/gtest.h>
 
+#include "jump_rigs.hpp"
 #include "pipeline/measurer.hpp"
 #include "synthetic/synthetic_renderer.hpp"
 
@@ -17,12 +18,8 @@ namespace rutd {
 namespace {
 
 TEST(BandTracking, KeepsTheBandWhileItFitsAndFollowsAJump) {
-  SynthConfig high;
-  high.rut.depth_mm = 45;
-  SynthConfig low = high;
-  low.rig.height_mm = 270;
-  low.rut.depth_mm = 30;
-  const SyntheticRenderer high_renderer(high), low_renderer(low);
+  const test::JumpRigs rigs;
+  const SyntheticRenderer &high_renderer = rigs.high, &low_renderer = rigs.low;
   ASSERT_EQ(cv::norm(cv::Mat(high_renderer.calibration().M1), cv::Mat(low_renderer.calibration().M1)), 0.0);
 
   StereoMeasurer tracking(high_renderer.calibration(), MeasurerConfig{});

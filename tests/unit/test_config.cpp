@@ -64,10 +64,11 @@ std::string dump(const RutdConfig& c) {
     << a.packet_socket;
   const MeasurerConfig& m = c.measurement;
   o << "\ncalibration=" << c.calibration << "\nengine=" << static_cast<int>(m.engine)
-    << "\ngpu_device=" << m.engine_config.gpu_device << "\nsgm_paths=" << m.engine_config.sgm_paths << "\ndic=" << m.dic
-    << "\nstrip=" << m.strip.row0 << "," << m.strip.rows << "\nrange=" << m.range.near_mm << "," << m.range.far_mm
-    << "\nrut=" << m.rut.min_rut_width_mm << "," << m.rut.max_rut_width_mm << "," << m.rut.fit_window_mm << ","
-    << m.rut.bin_mm << "," << m.rut.min_rut_depth_mm;
+    << "\ngpu_device=" << m.engine_config.gpu_device << "\nsgm_paths=" << m.engine_config.sgm_paths
+    << "\nsgm_segment=" << m.engine_config.sgm_segment << "\ndic=" << m.dic << "\nstrip=" << m.strip.row0 << ","
+    << m.strip.rows << "\nrange=" << m.range.near_mm << "," << m.range.far_mm << "\nrut=" << m.rut.min_rut_width_mm
+    << "," << m.rut.max_rut_width_mm << "," << m.rut.fit_window_mm << "," << m.rut.bin_mm << ","
+    << m.rut.min_rut_depth_mm;
   o << "\ncan=" << c.can.extended << "," << int(c.can.source_address) << "," << int(c.can.priority);
   o << "\nsinks=" << c.sinks.socketcan << "," << c.sinks.candump << "," << c.sinks.can_interface_name << ","
     << c.sinks.csv << "," << c.sinks.record;
@@ -156,12 +157,14 @@ TEST(Config, ValuesAreRead) {
 }
 
 TEST(Config, GpuEngineAndDeviceAreRead) {
-  const RutdConfig c =
-      parse_config("measurement:\n  engine: gpu\n  gpu_device: \"NVIDIA\"\n  sgm_paths: 4\n", "test.yaml");
+  const RutdConfig c = parse_config(
+      "measurement:\n  engine: gpu\n  gpu_device: \"NVIDIA\"\n  sgm_paths: 4\n  sgm_segment: 64\n", "test.yaml");
   EXPECT_EQ(c.measurement.engine, EngineKind::Gpu);
   EXPECT_EQ(c.measurement.engine_config.gpu_device, "NVIDIA");
   EXPECT_EQ(c.measurement.engine_config.sgm_paths, 4);
+  EXPECT_EQ(c.measurement.engine_config.sgm_segment, 64);
   expect_error("measurement:\n  sgm_paths: 3\n", {"line 2", "measurement.sgm_paths", "2, 4 or 8"});
+  expect_error("measurement:\n  sgm_segment: 8\n", {"line 2", "measurement.sgm_segment", "16..65535"});
 }
 
 TEST(Config, UnknownKeyIsNamedWithItsLine) {

@@ -28,7 +28,8 @@ layout(std430, binding = 0) readonly buffer Cost { uint cost[]; };  // cost.comp
 // One buffer per direction (each within the device's storage-buffer range), [y][x][word], 4 bytes a word;
 // words per pixel: num_disparities / 16 rounded up, times 4 (the bytes past num_disparities are 0xFF).
 layout(std430, binding = 1) writeonly buffer PathCost { uint w[]; } path_cost[8];
-layout(push_constant) uniform Params { int width, height, num_disparities, p1, p2, words; } pc;
+// segment, run_in: SgmParams::segment (0: off) and segment_run_in; workgroup z is the segment of a row.
+layout(push_constant) uniform Params { int width, height, num_disparities, p1, p2, words, segment, run_in; } pc;
 
 const uint kBig = 0xFFFFu;  // beyond any L: the disparities outside the band
 const int kRing = 8;
@@ -54,9 +55,21 @@ void main() {
     x0 = dx > 0 ? 0 : W - 1;
     y0 = dy > 0 ? 1 + (line - W) : H - 2 - (line - W);
   }
+  // Rows in segments: segment z keeps walk steps [z S, (z + 1) S), walked from max(0, z S - run_in).
+  const int seg = int(gl_WorkGroupID.z);
+  int keep_from = 0, seg_end = 1 << 30;
+  if (dy == 0 && pc.segment > 0) {
+    if (seg * pc.segment >= W) return;
+    const int begin = max(0, seg * pc.segment - pc.run_in);
+    seg_end = min((seg + 1) * pc.segment, W) - begin;
+    keep_from = seg * pc.segment - begin;
+    x0 += begin * dx;
+  } else if (seg > 0) {
+    return;  // other directions, and unsegmented rows, have one segment
+  }
   const int along_x = dx == 0 ? 1 << 30 : dx > 0 ? W - x0 : x0 + 1;
   const int along_y = dy == 0 ? 1 << 30 : dy > 0 ? H - y0 : y0 + 1;
-  const int steps = min(along_x, along_y);  // until the line leaves the image
+  const int steps = min(min(along_x, along_y), seg_end);  // until the line leaves the image or its segment
   const int t = int(gl_LocalInvocationID.x);
   const int first_word = kWords * t;
   const bool one_subgroup = gl_NumSubgroups == 1u;
@@ -101,7 +114,7 @@ void main() {
       }
       [[unroll]] for (int k = 0; k < kWords; ++k) {
         const int word = first_word + k;
-        if (word < pc.words)
+        if (word < pc.words && step >= keep_from)
           path_cost[dir].w[(y * W + x) * pc.words + word] =
               (cur[4 * k] & 0xFFu) | ((cur[4 * k + 1] & 0xFFu) << 8) | ((cur[4 * k + 2] & 0xFFu) << 16) |
               ((cur[4 * k + 3] & 0xFFu) << 24);

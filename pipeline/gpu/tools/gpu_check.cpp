@@ -8,8 +8,12 @@
 // at most 0.5% of the windows refined on one side only (a rejection threshold met within rounding). The DIC
 // runs in both modes: per pixel, and column windows (the daemon's: one window per column and row block,
 // random block heights, one block of the whole strip on strips up to 64 rows) from the same matcher
-// output. Exit status: 0 all equal, 1 a difference, 2 usage, 77 no usable Vulkan device (CTest's skip
-// code). Needs only the Vulkan loader at run time.
+// output. Every second case starts from raw images rectified on the device (rectify.hpp) through warped
+// maps that reach past the raw border: the strips must equal the reference's byte for byte, and the
+// stages after them are compared as above; the band estimate's coarse pass (submit_coarse: the strips
+// averaged over 1-4 columns and 2 rows, matched without DIC) must give the reference's coarse image and
+// coarse disparity exactly. Exit status: 0 all equal, 1 a difference, 2 usage, 77 no usable Vulkan
+// device (CTest's skip code). Needs only the Vulkan loader at run time.
 //   rutd-gpu-check [--device NAME|INDEX] [--seed N] [--cases N] [--aggregate-threads N]
 // --aggregate-threads: the aggregation's workgroup size (VulkanSgm); several subgroups' worth checks its
 // shared-memory path.
@@ -23,6 +27,7 @@
 #include <string>
 
 #include "gpu/dic.hpp"
+#include "gpu/rectify.hpp"
 #include "gpu/vulkan_sgm.hpp"
 #include "synthetic_pair.hpp"
 
@@ -68,6 +73,29 @@ long count_over(const std::vector<float>& a, const std::vector<float>& b, double
 struct Case {
   int width, height, min_disparity, num_disparities;
 };
+
+// Maps of a strip that samples a raw image of raw_w x raw_h: a shift with a fraction, a slight rotation,
+// a barrel term and a ripple (so neighbouring pixels have different fractions), with positions past the
+// raw border on every side (the clamps). `right` shifts by other fractions.
+std::vector<float> warped_map(int width, int height, int raw_w, int raw_h, bool right, std::mt19937& rng) {
+  std::uniform_real_distribution<float> u(-1.f, 1.f);
+  const float ox = 0.5f * static_cast<float>(raw_w - width) + u(rng) * 2.5f + (right ? 0.29f : 0.0f);
+  const float oy = 0.5f * static_cast<float>(raw_h - height) + u(rng) * 2.5f + (right ? -0.17f : 0.0f);
+  const float rot = 0.01f * u(rng), barrel = 4e-6f * u(rng), ripple = 0.4f * u(rng);
+  const float cx = 0.5f * static_cast<float>(width), cy = 0.5f * static_cast<float>(height);
+  std::vector<float> map(2 * static_cast<std::size_t>(width) * static_cast<std::size_t>(height));
+  for (int y = 0; y < height; ++y) {
+    for (int x = 0; x < width; ++x) {
+      const float dx = static_cast<float>(x) - cx, dy = static_cast<float>(y) - cy;
+      const float r2 = dx * dx + dy * dy;
+      const std::size_t i =
+          2 * (static_cast<std::size_t>(y) * static_cast<std::size_t>(width) + static_cast<std::size_t>(x));
+      map[i] = cx + ox + dx * (1.0f + barrel * r2) - rot * dy + ripple * std::sin(0.37f * static_cast<float>(y));
+      map[i + 1] = cy + oy + dy * (1.0f + barrel * r2) + rot * dx + ripple * std::cos(0.23f * static_cast<float>(x));
+    }
+  }
+  return map;
+}
 
 // A DIC output against its reference.
 struct DicComparison {
@@ -144,6 +172,10 @@ int main(int argc, char** argv) {
     params.uniqueness = uni(0, 25);
     params.lr_max_diff = uni(-1, 2);
     params.median = k % 4 != 3;
+    if (k % 4 == 1) {  // rows in segments (SgmParams::segment), with a run-in shorter or longer than one
+      params.segment = uni(16, 100);
+      params.segment_run_in = uni(0, 80);
+    }
     const SgmBand band{c.min_disparity, c.num_disparities};
     DicParams dic;
     dic.half_window = uni(2, 7);
@@ -180,10 +212,40 @@ int main(int argc, char** argv) {
           aggregate_threads > 0 ? (", aggregation workgroup " + std::to_string(aggregate_threads)).c_str() : "");
     // Gentle waves down two cases in three, so that column windows spanning many rows refine; the rest
     // keep waves that reject many of them.
-    const auto pair = tools::synthetic_pair(c.width, c.height, c.min_disparity, c.num_disparities,
+    // Raw cases: the pair is rendered a little larger than the strip (or smaller: the maps then reach
+    // far past the border), and both images go through their own maps.
+    const bool raw = k % 2 == 0;
+    const int raw_w = raw ? std::max(1, c.width + uni(-4, 24)) : c.width;
+    // A strip of a much taller image, as the daemon's, every fourth case: only the rows the maps reach
+    // are uploaded.
+    const int raw_h = !raw                           ? c.height
+                      : c.height <= 64 && k % 4 == 0 ? 8 * c.height
+                                                     : std::max(1, c.height + uni(-2, 30));
+    const auto pair = tools::synthetic_pair(raw_w, raw_h, c.min_disparity, c.num_disparities,
                                             seed + static_cast<unsigned>(k), k % 3 != 2 ? 1.0f : -1.0f);
-    const ImageView l{pair.left.data(), c.width, c.height, static_cast<std::size_t>(c.width)};
-    const ImageView r{pair.right.data(), c.width, c.height, static_cast<std::size_t>(c.width)};
+    const ImageView raw_l{pair.left.data(), raw_w, raw_h, static_cast<std::size_t>(raw_w)};
+    const ImageView raw_r{pair.right.data(), raw_w, raw_h, static_cast<std::size_t>(raw_w)};
+    RectifyMaps maps;
+    std::vector<std::uint8_t> rect_l, rect_r;
+    if (raw) {
+      maps = RectifyMaps{raw_w,
+                         raw_h,
+                         c.width,
+                         c.height,
+                         warped_map(c.width, c.height, raw_w, raw_h, false, rng),
+                         warped_map(c.width, c.height, raw_w, raw_h, true, rng)};
+      rectify_reference(raw_l, maps.left, c.width, c.height, rect_l);
+      rectify_reference(raw_r, maps.right, c.width, c.height, rect_r);
+      try {
+        sgm->set_rectification(maps);
+      } catch (const GpuError& e) {
+        std::printf("FAIL case %zu: %s\n", k, e.what());
+        return 1;
+      }
+    }
+    // What the reference matches: the raw pair itself, or its rectified strips.
+    const ImageView l = raw ? ImageView{rect_l.data(), c.width, c.height, static_cast<std::size_t>(c.width)} : raw_l;
+    const ImageView r = raw ? ImageView{rect_r.data(), c.width, c.height, static_cast<std::size_t>(c.width)} : raw_r;
     SgmStages ref, dev;
     sgm_reference(l, r, band, params, ref);
     bspline_reference(l, ref.spline_left);
@@ -191,27 +253,69 @@ int main(int argc, char** argv) {
     dic_reference(l, ref.spline_left, ref.spline_right, ref.disparity, dic, ref.refined);
     std::vector<float> ref_columns, dev_columns(ref.disparity.size());
     dic_reference(l, ref.spline_left, ref.spline_right, ref.disparity, columns, ref_columns);
-    GpuStatus s = sgm->compute_stages(l, r, band, params, &dic, dev);
-    if (s == GpuStatus::Ok)
+    GpuStatus s = sgm->compute_stages(raw ? raw_l : l, raw ? raw_r : r, band, params, &dic, dev, raw);
+    if (s == GpuStatus::Ok && raw) {
+      int ticket = -1;
+      s = sgm->submit_raw(raw_l, raw_r, &band, params, &columns, ticket);
+      if (s == GpuStatus::Ok) s = sgm->collect(ticket, dev_columns.data(), static_cast<std::size_t>(c.width));
+    } else if (s == GpuStatus::Ok) {
       s = sgm->compute(l, r, band, params, &columns, dev_columns.data(), static_cast<std::size_t>(c.width));
-    std::printf("case %2zu: %4dx%-4d band %3d+%-3d paths %d P1 %2d P2 %3d uniq %2d lr %2d median %d: ", k, c.width,
-                c.height, c.min_disparity, c.num_disparities, params.paths, params.p1, params.p2, params.uniqueness,
-                params.lr_max_diff, params.median ? 1 : 0);
+    }
+    // The coarse pass: the reference averages the reference strips and matches them.
+    bool coarse_ok = true;
+    std::string coarse_note;
+    if (s == GpuStatus::Ok && raw) {
+      const int scale = uni(1, 4);
+      const CoarseGrid grid = coarse_grid(c.width, c.height, scale);
+      const SgmBand coarse_band{c.min_disparity / scale, std::max(2, c.num_disparities / scale / 2 * 2)};
+      if (grid.width >= 1 && grid.height >= 1 &&
+          check_sgm_input(grid.width, grid.height, coarse_band, params).empty()) {
+        std::vector<std::uint8_t> ref_l, ref_r, dev_l(static_cast<std::size_t>(grid.width) * grid.height);
+        downsample_reference(l, grid, ref_l);
+        downsample_reference(r, grid, ref_r);
+        SgmStages coarse_ref;
+        sgm_reference(ImageView{ref_l.data(), grid.width, grid.height, static_cast<std::size_t>(grid.width)},
+                      ImageView{ref_r.data(), grid.width, grid.height, static_cast<std::size_t>(grid.width)},
+                      coarse_band, params, coarse_ref);
+        std::vector<float> dev_d(dev_l.size());
+        StripsOut out;
+        out.coarse_left = dev_l.data();
+        out.coarse_stride = static_cast<std::size_t>(grid.width);
+        int ticket = -1;
+        s = sgm->submit_coarse(raw_l, raw_r, scale, coarse_band, params, ticket);
+        if (s == GpuStatus::Ok)
+          s = sgm->collect(ticket, dev_d.data(), static_cast<std::size_t>(grid.width), nullptr, &out);
+        coarse_ok = first_difference(ref_l, dev_l) < 0 && first_difference(coarse_ref.disparity, dev_d) < 0;
+        coarse_note = "; coarse " + std::to_string(grid.width) + "x" + std::to_string(grid.height) +
+                      (coarse_ok ? " identical" : " DIFFERS");
+      }
+    }
+    std::printf("case %2zu: %4dx%-4d%s band %3d+%-3d paths %d%s P1 %2d P2 %3d uniq %2d lr %2d median %d: ", k, c.width,
+                c.height, raw ? (" from " + std::to_string(raw_w) + "x" + std::to_string(raw_h) + " raw").c_str() : "",
+                c.min_disparity, c.num_disparities, params.paths,
+                params.segment > 0 ? (" rows in " + std::to_string(params.segment) + "+" +
+                                      std::to_string(params.segment_run_in) + " px segments")
+                                         .c_str()
+                                   : "",
+                params.p1, params.p2, params.uniqueness, params.lr_max_diff, params.median ? 1 : 0);
     if (s != GpuStatus::Ok) {
       std::printf("FAIL (%s)\n", std::string(to_string(s)).c_str());
       ++failures;
       continue;
     }
-    const long diffs[] = {first_difference(ref.census_left, dev.census_left),
+    const long diffs[] = {raw ? first_difference(rect_l, dev.rectified_left) : -1,
+                          raw ? first_difference(rect_r, dev.rectified_right) : -1,
+                          first_difference(ref.census_left, dev.census_left),
                           first_difference(ref.census_right, dev.census_right),
                           first_difference(ref.sums, dev.sums),
                           first_difference(ref.disparity_left, dev.disparity_left),
                           first_difference(ref.disparity_right, dev.disparity_right),
                           first_difference(ref.disparity, dev.disparity)};
-    const char* names[] = {"census left",        "census right", "path sums",
-                           "WTA/sub-pixel left", "WTA right",    "LR check/median"};
-    bool ok = true;
-    for (int i = 0; i < 6; ++i) {
+    const char* names[] = {"rectified left", "rectified right",    "census left", "census right",
+                           "path sums",      "WTA/sub-pixel left", "WTA right",   "LR check/median"};
+    bool ok = coarse_ok;
+    if (!coarse_ok) std::printf("FAIL\n    coarse pass (band estimate) differs\n");
+    for (int i = 0; i < 8; ++i) {
       if (diffs[i] < 0) continue;
       if (ok) std::printf("FAIL\n");
       ok = false;
@@ -244,12 +348,12 @@ int main(int argc, char** argv) {
     if (ok)
       std::printf(
           "identical (%.0f%% valid); DIC per pixel within %.5f px, %ld of %ld on one side only; column windows "
-          "(%s) within %.5f px, %ld of %ld on one side only\n",
+          "(%s) within %.5f px, %ld of %ld on one side only%s\n",
           100.0 * static_cast<double>(valid) / static_cast<double>(ref.disparity.size()), pixels.worst, pixels.one_side,
           pixels.refined,
           columns.column_block_rows > 0 ? ("blocks of " + std::to_string(columns.column_block_rows) + " rows").c_str()
                                         : "one block",
-          cols.worst, cols.one_side, cols.refined);
+          cols.worst, cols.one_side, cols.refined, coarse_note.c_str());
     failures += !ok;
   }
   std::printf("%s: %d of %zu cases differ\n", failures ? "FAIL" : "PASS", failures, list.size());

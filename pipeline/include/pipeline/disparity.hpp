@@ -54,6 +54,28 @@ class DisparityEngine {
                                const DicConfig& /*dic*/, cv::Mat& /*disparity*/, DicStats& /*stats*/) {
     return false;
   }
+  // Engines that rectify on their own device (Gpu, 8-bit raw images): rectifies the raw pair there through
+  // geometry's maps (the rectified strips come back in left_strip/right_strip, CV_8UC1, for the frame
+  // checks), then, when band is given, matches in it and refines with `dic` as compute_refined() does
+  // (dic == nullptr: compute() only; stats.refined counted). band == nullptr: rectification only.
+  // Returns false, doing nothing, when the engine cannot; the caller then rectifies on the CPU.
+  virtual bool rectify_and_match(const cv::Mat& /*left_raw*/, const cv::Mat& /*right_raw*/,
+                                 const StereoGeometry& /*geometry*/, const DisparityBand* /*band*/,
+                                 const DicConfig* /*dic*/, cv::Mat& /*left_strip*/, cv::Mat& /*right_strip*/,
+                                 cv::Mat& /*disparity*/, DicStats& /*stats*/) {
+    return false;
+  }
+  // The coarse pass of BandEstimator on the engine's device (Gpu, 8-bit raw images): rectifies the raw pair
+  // as rectify_and_match() does (strips back in left_strip/right_strip), averages the strips over blocks
+  // of `scale` columns by 2 rows (1 row for strips under 10 rows; gpu::coarse_grid) into coarse_left
+  // (CV_8UC1), and matches the coarse pair in coarse_band (coarse px) into coarse_disparity (CV_32FC1,
+  // coarse px, NaN invalid). Returns false, doing nothing, when the engine cannot.
+  virtual bool coarse_match(const cv::Mat& /*left_raw*/, const cv::Mat& /*right_raw*/,
+                            const StereoGeometry& /*geometry*/, int /*scale*/, DisparityBand /*coarse_band*/,
+                            cv::Mat& /*left_strip*/, cv::Mat& /*right_strip*/, cv::Mat& /*coarse_left*/,
+                            cv::Mat& /*coarse_disparity*/) {
+    return false;
+  }
 };
 
 // Engine tuning. block_size 0 and every other field -1 mean "the engine's default" (given per field).
@@ -70,6 +92,7 @@ struct EngineConfig {
   // Gpu/SgmRef: block_size, speckle and pre-filter fields do not apply (9x7 census); p1/p2 are in census
   // bits (default 10/120), uniqueness_ratio defaults to 10, disp12_max_diff as above.
   int sgm_paths = 8;       // Gpu/SgmRef: 2, 4 or 8 aggregation paths
+  int sgm_segment = 0;     // Gpu/SgmRef: rows aggregated in segments of this many px (gpu::SgmParams), 0 off
   std::string gpu_device;  // Gpu: "" the first GPU; a number: that Vulkan device index; else a name part
 };
 
@@ -101,8 +124,26 @@ class BandEstimator {
  public:
   DisparityBand estimate(const cv::Mat& left_strip, const cv::Mat& right_strip, const StereoGeometry& g,
                          WorkingRange range);
+  // The same estimate with the coarse pass on `engine`'s device from the raw pair (coarse_match: the
+  // device's census matcher instead of StereoSGBM, the strips rectified there and returned in
+  // left_strip/right_strip). std::nullopt when the engine cannot, or the range needs no coarse pass:
+  // then rectify and call estimate().
+  std::optional<DisparityBand> estimate_on_device(DisparityEngine& engine, const cv::Mat& left_raw,
+                                                  const cv::Mat& right_raw, const StereoGeometry& g, WorkingRange range,
+                                                  cv::Mat& left_strip, cv::Mat& right_strip);
 
  private:
+  struct Plan {
+    DisparityBand full;   // band_for_range
+    int scale = 1;        // columns averaged per coarse pixel
+    bool coarse = false;  // false: the full band is the answer
+    DisparityBand coarse_band;
+    cv::Size coarse_size;
+  };
+  static Plan plan(const StereoGeometry& g, WorkingRange range, cv::Size strip);
+  // From coarse_ and left_ (the coarse pair's disparity and left image).
+  DisparityBand band_from_coarse(const Plan& p);
+
   std::unique_ptr<DisparityEngine> engine_;
   int engine_block_ = 0;  // block size engine_ was made with
   cv::Mat left_, right_, coarse_, texture_;

@@ -1,7 +1,8 @@
 #pragma once
 // One stereo pair in, one rut measurement out (DESIGN.md §2-5), in three stages that a real-time
 // pipeline runs on separate threads and `replay` runs one after the other:
-//   rectify  - remap the strip of both raw images (rows around the measured strip)
+//   rectify  - remap the strip of both raw images (rows around the measured strip); with the GPU engine
+//              the match stage's device does it (MeasurerConfig::rectify_on_device)
 //   match    - find the disparity band (or keep the last frame's while it fits: BandTracker), match,
 //              refine by digital image correlation
 //   extract  - reproject to millimetres, reduce to a cross-section, extract the rut, check the frame for
@@ -53,6 +54,11 @@ struct MeasurerConfig {
   // up to kMaxReusedFrames frames in a row (the terrain moves far less than the windows' convergence
   // range, about a pixel, between frames). A frame that falls short is matched again from the engine.
   bool reuse_starts = true;
+  // EngineKind::Gpu with 8-bit images: the engine rectifies on its device, in the same submission as the
+  // match and the DIC when the band is known, and only the rectified strips (for the frame checks) and
+  // the refined disparity come back; the rectify stage then only checks the frame. false: the CPU
+  // rectifies and the engine gets the strips.
+  bool rectify_on_device = true;
   static constexpr int kMaxReusedFrames = 15;
   static constexpr double kMinReusedShare = 0.97;
   RutConfig rut;
@@ -65,8 +71,12 @@ struct MeasurementDiagnostics {
   bool band_estimated = false;  // false: the last frame's band was kept (BandTracker), or fixed_band
   bool starts_reused = false;   // the DIC started from the last frame's disparity; the engine did not run
   DicStats dic;
+  // rectify_ms: CPU rectification, or the device's alone (a frame whose band was estimated); a frame
+  // rectified, matched and refined in one device submission counts it in disparity_ms.
   double rectify_ms = 0, band_ms = 0, disparity_ms = 0, dic_ms = 0, reproject_ms = 0,
          rut_ms = 0;  // rut_ms: extraction and frame checks
+  bool rectified_on_device = false;
+  bool band_on_device = false;  // the band's coarse pass ran on the engine's device (it rectified too)
 };
 
 // Everything one pair needs on its way through the stages. Frame pools hold these; every buffer is
@@ -75,6 +85,7 @@ struct MeasurementDiagnostics {
 struct FrameWork {
   StereoFrame frame;
   cv::Mat left_strip, right_strip;  // CV_8UC1 rectified strips, rows of StereoGeometry::roi()
+  bool strips_ready = false;        // false: rectify() left the strips to the match stage's engine
   cv::Mat disparity;                // CV_32FC1 px, NaN invalid
   cv::Mat xyz;                      // CV_32FC3 mm, left rectified camera frame, NaN invalid
   CrossSection section;
@@ -122,6 +133,17 @@ class StereoMeasurer {
  private:
   // Engine (or, with reuse, the last frame's disparity) and DIC in w.diag.band.
   void match_in_band(FrameWork& w, MatchContext& context, bool reuse) const;
+  // Strips left to the engine: rectified, matched and refined on its device in `band`; false when the
+  // engine cannot (then nothing changed).
+  bool match_raw(FrameWork& w, MatchContext& context, DisparityBand band) const;
+  // Strips left to the engine: rectified on its device, or here on the CPU when it cannot.
+  void rectify_late(FrameWork& w, MatchContext& context) const;
+  // A new band for w (its strips ready or left to the engine): the coarse pass on the engine's device
+  // where it can (8-bit frames, a GPU engine), else on the CPU from the strips (rectified first if needed).
+  DisparityBand estimate_band(FrameWork& w, MatchContext& context) const;
+  DicConfig strip_dic_config() const;
+  // The engine is to rectify this frame on its device (MeasurerConfig::rectify_on_device).
+  bool device_rectifies(const StereoFrame& frame) const;
 
   MeasurerConfig config_;
   cv::Size image_size_;

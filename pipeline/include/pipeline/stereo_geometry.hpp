@@ -55,6 +55,12 @@ class StereoGeometry {
   // output buffers when they already fit. Throws std::invalid_argument for a wrong size or type.
   void rectify(const cv::Mat& left_raw, const cv::Mat& right_raw, cv::Mat& left_strip, cv::Mat& right_strip) const;
 
+  // The float maps rectify() resamples at, for engines that rectify on their own device: per strip pixel,
+  // row-major, the raw x then y it samples (px). Size 2 x rectified width x roi().rows each.
+  cv::Size raw_size() const { return raw_size_; }
+  const std::vector<float>& left_map() const { return left_map_; }
+  const std::vector<float>& right_map() const { return right_map_; }
+
   // Disparity strip (CV_32FC1 px, roi().rows x rectified width, NaN = invalid; row r is rectified row
   // roi().row0 + r) to CV_32FC3 points (mm, left rectified frame), NaN where the disparity is invalid
   // or not positive. Reuses `xyz` when it already fits.
@@ -78,6 +84,7 @@ class StereoGeometry {
     float wx[4] = {}, wy[4] = {};
   };
   std::vector<SplineTap> left_taps_, right_taps_;
+  std::vector<float> left_map_, right_map_;
 };
 
 }  // namespace rutd

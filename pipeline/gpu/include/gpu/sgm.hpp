@@ -33,6 +33,13 @@ struct SgmParams {
   int uniqueness = 10;  // percent margin the best sum must keep over disparities more than 1 px away, 0..99
   int lr_max_diff = 1;  // px tolerance of the left-right check; < 0: no check
   bool median = true;   // 3x3 median after the check
+  // Rows (the two horizontal directions) walked in segments of this many px, each path started afresh
+  // segment_run_in px before the segment's first pixel, so that a device walks a row's segments in
+  // parallel: chains of at most segment + segment_run_in steps instead of the width, for strips, whose
+  // few long rows bound the aggregation by the latency of one step. The run-in lets the restarted path
+  // forget its start (path costs are renormalised every step). 0: whole rows (the default).
+  int segment = 0;
+  int segment_run_in = 64;
 };
 
 constexpr int kMaxDisparities = 512;  // shared-memory size of aggregate.comp and wta.comp
@@ -53,6 +60,8 @@ struct SgmStages {
   std::vector<float> disparity;                          // px after left-right check and median, NaN invalid
   // With DIC (dic.hpp): both images' B-spline coefficients and the refined disparity (px, NaN invalid).
   std::vector<float> spline_left, spline_right, refined;
+  // From raw images (VulkanSgm::compute_stages): the strips rectified on the device, 8-bit.
+  std::vector<std::uint8_t> rectified_left, rectified_right;
 };
 
 // The reference stages, each from the previous one's output in `st` (census from the images). Allocates

@@ -1,11 +1,14 @@
 #pragma once
 // The semi-global matcher of sgm.hpp on a Vulkan compute device: census, path aggregation, winner-takes-all
 // with uniqueness and sub-pixel, left-right check and median, every stage a compute shader whose integer
-// arithmetic equals the reference's (so results are bit for bit those of sgm_reference). Needs Vulkan 1.1
-// with subgroup arithmetic in compute shaders (any subgroup size); runs on lavapipe as on GPUs.
+// arithmetic equals the reference's (so results are bit for bit those of sgm_reference). Optionally it
+// starts from raw images, rectified on the device (rectify.hpp, byte for byte rectify_reference), and runs
+// the band estimate's coarse pass there too. Needs Vulkan 1.1 with subgroup arithmetic in compute shaders
+// (any subgroup size); runs on lavapipe as on GPUs.
 //
-// Errors: the constructor throws GpuError (no loader, no usable device, allocation failure); the per-frame
-// calls return a GpuStatus and never throw. DeviceLost is sticky: the object is then unusable.
+// Errors: the constructor and set_rectification throw GpuError (no loader, no usable device, allocation
+// failure); the per-frame calls return a GpuStatus and never throw. DeviceLost is sticky: the object is
+// then unusable.
 // Not thread-safe: one thread uses one VulkanSgm.
 #include <cstddef>
 #include <cstdint>
@@ -16,6 +19,7 @@
 #include <vector>
 
 #include "gpu/dic.hpp"
+#include "gpu/rectify.hpp"
 #include "gpu/sgm.hpp"
 
 namespace rutd::gpu {
@@ -39,9 +43,23 @@ struct GpuDeviceInfo {
 // Every physical device the loader reports. Throws GpuError when there is no Vulkan loader or instance.
 std::vector<GpuDeviceInfo> list_gpu_devices();
 
-// Device time of each stage of one frame, ms (GPU timestamps; all 0 when the queue has none).
+// Device time of each stage of one frame, ms (GPU timestamps; all 0 when the queue has none). rectify_ms
+// is 0 for rectified input; census_ms includes the DIC's B-spline prefilter.
 struct GpuStageTimes {
-  double upload_ms = 0, census_ms = 0, aggregate_ms = 0, wta_ms = 0, lr_median_ms = 0, dic_ms = 0, download_ms = 0;
+  double upload_ms = 0, rectify_ms = 0, census_ms = 0, aggregate_ms = 0, wta_ms = 0, lr_median_ms = 0, dic_ms = 0,
+         download_ms = 0;
+};
+
+// Where collect() copies the rectified strips of a frame submitted raw: width() x height() bytes each,
+// rows `stride` bytes apart. The caller owns the memory.
+struct StripsOut {
+  std::uint8_t* left = nullptr;
+  std::uint8_t* right = nullptr;
+  std::size_t stride = 0;
+  // submit_coarse(): the coarse left image (CoarseGrid size), rows coarse_stride bytes apart; nullptr: not
+  // copied.
+  std::uint8_t* coarse_left = nullptr;
+  std::size_t coarse_stride = 0;
 };
 
 class VulkanSgm {
@@ -64,6 +82,12 @@ class VulkanSgm {
   int width() const;
   int height() const;
 
+  // Rectification on the device: from now on submit_raw() takes raw images of maps.raw_width x
+  // maps.raw_height and resamples them into width() x height() strips through `maps` (rectify.hpp) before
+  // matching. The maps are uploaded once, here. Throws GpuError for maps that do not fit the matcher or
+  // a failed allocation or upload.
+  void set_rectification(const RectifyMaps& maps);
+
   // Two frames can be in flight: submit() copies the pair into the staging memory of slot `ticket`
   // (alternating 0, 1) and queues its work; collect() waits for that slot and copies the disparity (px,
   // NaN invalid; rows of `stride` floats) out. Submitting the next pair before collecting the current one
@@ -72,14 +96,28 @@ class VulkanSgm {
   // nullptr: return the matcher's.
   GpuStatus submit(const ImageView& left, const ImageView& right, SgmBand band, const SgmParams& params,
                    const DicParams* dic, int& ticket);
-  GpuStatus collect(int ticket, float* disparity, std::size_t stride, GpuStageTimes* times = nullptr);
+  // As submit(), from raw images (set_rectification() first, else InvalidInput): rectified on the device,
+  // then matched. band == nullptr: rectification only; collect() then copies out the strips alone.
+  GpuStatus submit_raw(const ImageView& left_raw, const ImageView& right_raw, const SgmBand* band,
+                       const SgmParams& params, const DicParams* dic, int& ticket);
+  // The band estimate's coarse pass on the device (set_rectification() first): rectifies the raw pair,
+  // averages the strips to coarse_grid(width(), height(), scale) (rectify.hpp) and matches the coarse
+  // images in `band` (coarse px) with `params`, without DIC. collect() then returns the coarse disparity
+  // (rows of grid.width floats at `stride`), the strips and the coarse left image.
+  GpuStatus submit_coarse(const ImageView& left_raw, const ImageView& right_raw, int scale, SgmBand band,
+                          const SgmParams& params, int& ticket);
+  // strips: for a frame submitted raw, where its rectified strips go (nullptr: not copied); must be
+  // nullptr for a frame submitted rectified. disparity may be nullptr for a rectification-only frame.
+  GpuStatus collect(int ticket, float* disparity, std::size_t stride, GpuStageTimes* times = nullptr,
+                    const StripsOut* strips = nullptr);
   // submit() then collect().
   GpuStatus compute(const ImageView& left, const ImageView& right, SgmBand band, const SgmParams& params,
                     const DicParams* dic, float* disparity, std::size_t stride, GpuStageTimes* times = nullptr);
 
   // For tests: one frame, then every stage's buffer copied back into `st` (allocates; may throw GpuError).
+  // raw: left/right are raw images, rectified on the device (st.rectified_left/right filled).
   GpuStatus compute_stages(const ImageView& left, const ImageView& right, SgmBand band, const SgmParams& params,
-                           const DicParams* dic, SgmStages& st);
+                           const DicParams* dic, SgmStages& st, bool raw = false);
 
  private:
   struct Impl;
