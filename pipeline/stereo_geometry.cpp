@@ -115,15 +115,10 @@ std::vector<Tap> make_taps(const cv::Mat& map_x, const cv::Mat& map_y, cv::Size 
 
 // x then y of every map position, row-major (StereoGeometry::left_map()).
 std::vector<float> interleave(const cv::Mat& map_x, const cv::Mat& map_y) {
-  std::vector<float> out;
-  out.reserve(2 * map_x.total());
-  for (int r = 0; r < map_x.rows; ++r) {
-    for (int c = 0; c < map_x.cols; ++c) {
-      out.push_back(map_x.at<float>(r, c));
-      out.push_back(map_y.at<float>(r, c));
-    }
-  }
-  return out;
+  cv::Mat xy;  // CV_32FC2, continuous: x then y per position
+  cv::merge(std::vector<cv::Mat>{map_x, map_y}, xy);
+  const auto* first = xy.ptr<float>();
+  return std::vector<float>(first, first + 2 * xy.total());
 }
 
 // One strip pixel from its taps; the block is clamped to the raw image only where it leaves it.

@@ -246,6 +246,15 @@ struct DicPush {
 
 std::uint32_t groups(int n, int size) { return static_cast<std::uint32_t>((n + size - 1) / size); }
 
+// `rows` rows of `row_bytes` bytes each, from rows `src_stride` bytes apart to rows `dst_stride` bytes apart.
+void copy_rows(void* dst, std::size_t dst_stride, const void* src, std::size_t src_stride, std::size_t row_bytes,
+               int rows) {
+  auto* d = static_cast<std::uint8_t*>(dst);
+  const auto* s = static_cast<const std::uint8_t*>(src);
+  for (std::size_t y = 0; y < static_cast<std::size_t>(rows); ++y)
+    std::memcpy(d + y * dst_stride, s + y * src_stride, row_bytes);
+}
+
 constexpr int kPathsMax = 8;                     // FrameBuffers::costs
 constexpr int kWtaSegment = 16;                  // pixels per workgroup of wta.comp
 constexpr std::uint32_t kNoMatch = 0xFFFFFFFFu;  // right_key: no disparity
@@ -1075,33 +1084,27 @@ GpuStatus VulkanSgm::collect(int ticket, float* disparity, std::size_t stride, G
   // A request the frame cannot answer: checked after the wait, so the slot is free again either way.
   if ((strips && slot.input == Input::Rectified) || (!disparity && slot.input != Input::RawOnly))
     return GpuStatus::InvalidInput;
-  const std::size_t pixels = static_cast<std::size_t>(m.width) * static_cast<std::size_t>(m.height);
+  // The download buffer: the disparity (floats, unpadded rows), then both packed strips, then the packed
+  // coarse left image (record()).
+  const auto* down = static_cast<const std::uint8_t*>(slot.download.mapped);
+  const std::size_t strips_at = static_cast<std::size_t>(m.width) * static_cast<std::size_t>(m.height) * 4;
   const bool coarse = slot.input == Input::RawCoarse;
   if (disparity && slot.input != Input::RawOnly) {
-    const auto* src = static_cast<const float*>(slot.download.mapped);
     const int w = coarse ? slot.grid.width : m.width, h = coarse ? slot.grid.height : m.height;
-    for (int y = 0; y < h; ++y)
-      std::memcpy(disparity + static_cast<std::size_t>(y) * stride,
-                  src + static_cast<std::size_t>(y) * static_cast<std::size_t>(w),
-                  static_cast<std::size_t>(w) * sizeof(float));
+    const std::size_t row_bytes = static_cast<std::size_t>(w) * sizeof(float);
+    copy_rows(disparity, stride * sizeof(float), down, row_bytes, row_bytes, h);
   }
-  if (coarse && strips && strips->coarse_left) {
-    const auto* src = static_cast<const std::uint8_t*>(slot.download.mapped) + pixels * 4 + 2 * m.image_bytes;
-    const auto row_bytes = static_cast<std::size_t>((slot.grid.width + 3) / 4) * 4;
-    for (int y = 0; y < slot.grid.height; ++y)
-      std::memcpy(strips->coarse_left + static_cast<std::size_t>(y) * strips->coarse_stride,
-                  src + static_cast<std::size_t>(y) * row_bytes, static_cast<std::size_t>(slot.grid.width));
-  }
+  if (coarse && strips && strips->coarse_left)
+    copy_rows(strips->coarse_left, strips->coarse_stride, down + strips_at + 2 * m.image_bytes,
+              static_cast<std::size_t>((slot.grid.width + 3) / 4) * 4, static_cast<std::size_t>(slot.grid.width),
+              slot.grid.height);
   if (strips) {
-    const auto* packed = static_cast<const std::uint8_t*>(slot.download.mapped) + pixels * 4;
-    const std::size_t row_bytes = static_cast<std::size_t>(m.words_per_row) * 4;
+    const std::size_t packed_row = static_cast<std::size_t>(m.words_per_row) * 4;
     for (int i = 0; i < 2; ++i) {
       std::uint8_t* dst = i == 0 ? strips->left : strips->right;
-      if (!dst) continue;
-      const std::uint8_t* src = packed + static_cast<std::size_t>(i) * static_cast<std::size_t>(m.image_bytes);
-      for (int y = 0; y < m.height; ++y)
-        std::memcpy(dst + static_cast<std::size_t>(y) * strips->stride, src + static_cast<std::size_t>(y) * row_bytes,
-                    static_cast<std::size_t>(m.width));
+      if (dst)
+        copy_rows(dst, strips->stride, down + strips_at + static_cast<std::size_t>(i) * m.image_bytes, packed_row,
+                  static_cast<std::size_t>(m.width), m.height);
     }
   }
   if (times) {
