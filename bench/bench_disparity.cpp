@@ -103,7 +103,7 @@ void dic_args(benchmark::internal::Benchmark* b) {
 // Both raw images of a rendered 8-bit pair to rectified strips: `rows` centred rows (the default strip
 // with its matching margin is 62 rows of 480) or the full frame.
 void BM_Rectify(benchmark::State& state) {
-  rutd::SynthConfig config;
+  rutd::SyntheticRendererConfig config;
   config.rig.image_size = cv::Size(static_cast<int>(state.range(0)), static_cast<int>(state.range(1)));
   const rutd::SyntheticRenderer renderer(config);
   rutd::StereoFrame frame;

@@ -41,7 +41,7 @@ struct Scene {
 };
 
 Scene make_scene(cv::Size size, double depth_mm, std::size_t frames) {
-  SynthConfig p;
+  SyntheticRendererConfig p;
   p.rig.image_size = size;
   p.rut.depth_mm = depth_mm;
   Scene s;

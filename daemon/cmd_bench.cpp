@@ -125,7 +125,7 @@ void run(const char* mode, const char* regime, const SyntheticRenderer& renderer
 }
 
 int run_bench(const Options& o) {
-  SynthConfig p;
+  SyntheticRendererConfig p;
   const auto size = parse_dimensions(o.size, 64, 8192);
   if (!size)
     throw CLI::ValidationError("--size", "expected WIDTHxHEIGHT between 64x64 and 8192x8192, got '" + o.size + "'");

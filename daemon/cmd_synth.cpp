@@ -8,21 +8,21 @@
 
 #include "daemon/commands.hpp"
 #include "daemon/progress.hpp"
-#include "daemon/synth_options.hpp"
+#include "daemon/scene_options.hpp"
 #include "recording/recording.hpp"
 #include "synthetic/truth_csv.hpp"
 
 namespace rutd {
 namespace {
 
-struct SynthCommandOptions {
+struct SynthOptions {
   std::string dir;
   std::uint64_t frames = 10;
-  SynthOptions scene;
+  SceneOptions scene;
 };
 
-int run_synth(const SynthCommandOptions& o) {
-  const SynthConfig params = resolve_synth_options(o.scene);
+int run_synth(const SynthOptions& o) {
+  const SyntheticRendererConfig params = resolve_scene_options(o.scene);
   const SyntheticRenderer renderer(params);
   RecordingWriter writer(o.dir, renderer.calibration());  // throws InputError if the folder is unusable
   TruthCsvWriter truth((std::filesystem::path(o.dir) / "truth.csv").string());
@@ -48,13 +48,13 @@ int run_synth(const SynthCommandOptions& o) {
 }  // namespace
 
 void add_synth_command(CLI::App& app, int& exit_code) {
-  auto options = std::make_shared<SynthCommandOptions>();
+  auto options = std::make_shared<SynthOptions>();
   CLI::App* cmd = app.add_subcommand("synth", "Render a synthetic stereo recording of a rut with ground truth");
   cmd->add_option("dir", options->dir, "Recording folder to create")->required();
   cmd->add_option("--frames", options->frames, "Number of stereo pairs")
       ->check(CLI::Range(1, 1000000))
       ->capture_default_str();
-  add_synth_options(*cmd, options->scene);
+  add_scene_options(*cmd, options->scene);
   cmd->callback([options, &exit_code] { exit_code = run_synth(*options); });
 }
 

@@ -169,7 +169,7 @@ std::string parse_byte(const std::string& s, std::uint8_t& out, unsigned max) {
   return {};
 }
 
-void read_synthetic(Section s, SynthConfig& p, int& cycle_frames) {
+void read_synthetic(Section s, SyntheticRendererConfig& p, int& cycle_frames) {
   s.parse("size", [&](const std::string& t) { return parse_size(t, p.rig.image_size); })
       .get<double>("fps", p.fps, in_range(0.1, 1000.0))
       .get<double>("baseline_mm", p.rig.baseline_mm, in_range(5.0, 1000.0))

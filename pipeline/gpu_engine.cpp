@@ -16,7 +16,7 @@ namespace {
 
 gpu::ImageView view(const cv::Mat& m) { return gpu::ImageView{m.data, m.cols, m.rows, m.step[0]}; }
 
-bool matchable(const cv::Mat& left, const cv::Mat& right, DisparityBand band, const gpu::SgmParams& params) {
+bool matchable(const cv::Mat& left, const cv::Mat& right, DisparityBand band, const gpu::SgmConfig& params) {
   return left.type() == CV_8UC1 && right.type() == CV_8UC1 && left.size() == right.size() &&
          gpu::check_sgm_input(left.cols, left.rows, gpu::SgmBand{band.min_disparity, band.num_disparities}, params)
              .empty();
@@ -41,8 +41,8 @@ class GpuEngine : public DisparityEngine {
 
   bool compute_refined(const cv::Mat& left, const cv::Mat& right, DisparityBand band, const DicConfig& dic,
                        cv::Mat& disparity, DicStats& stats) override {
-    const gpu::DicParams p = dic_params(dic, left.rows);
-    if (fallback_ || !gpu::check_dic_params(p).empty()) return false;
+    const gpu::DicKernelConfig p = dic_params(dic, left.rows);
+    if (fallback_ || !gpu::check_dic_kernel_config(p).empty()) return false;
     if (!run(left, right, band, &p, disparity)) return false;
     stats = count_refined(p, disparity);
     return true;
@@ -53,7 +53,7 @@ class GpuEngine : public DisparityEngine {
                          cv::Mat& disparity, DicStats& stats) override {
     const cv::Size strip(geometry.rectified_size().width, geometry.roi().rows);
     if (!takes_raw(left_raw, right_raw, geometry)) return false;
-    gpu::DicParams p;
+    gpu::DicKernelConfig p;
     if (band) {
       // A band the matcher refuses takes the caller's path, which gives the NaN disparity.
       if (!gpu::check_sgm_input(strip.width, strip.height, {band->min_disparity, band->num_disparities}, params_)
@@ -61,7 +61,7 @@ class GpuEngine : public DisparityEngine {
         return false;
       if (dic) {
         p = dic_params(*dic, strip.height);
-        if (!gpu::check_dic_params(p).empty()) return false;
+        if (!gpu::check_dic_kernel_config(p).empty()) return false;
       }
     }
     if (!ready(strip, band ? band->num_disparities : 0, &geometry)) return false;
@@ -121,7 +121,7 @@ class GpuEngine : public DisparityEngine {
 
   // Refined windows, as the CPU DIC counts them: pixels, or columns of each row block (a block's rows
   // are all refined or all NaN).
-  static DicStats count_refined(const gpu::DicParams& p, const cv::Mat& disparity) {
+  static DicStats count_refined(const gpu::DicKernelConfig& p, const cv::Mat& disparity) {
     DicStats stats;
     if (p.column_windows) {
       const gpu::ColumnBlocks blocks(p, disparity.rows);
@@ -164,7 +164,7 @@ class GpuEngine : public DisparityEngine {
   }
 
   // False when the frame went to the fallback (unrefined).
-  bool run(const cv::Mat& left, const cv::Mat& right, DisparityBand band, const gpu::DicParams* dic,
+  bool run(const cv::Mat& left, const cv::Mat& right, DisparityBand band, const gpu::DicKernelConfig* dic,
            cv::Mat& disparity) {
     disparity.create(left.size(), CV_32FC1);
     if (fallback_) {
@@ -200,7 +200,7 @@ class GpuEngine : public DisparityEngine {
   }
 
   EngineConfig config_;
-  gpu::SgmParams params_;
+  gpu::SgmConfig params_;
   std::unique_ptr<gpu::VulkanSgm> sgm_;
   std::unique_ptr<SgmReferenceEngine> fallback_;
   int max_disparities_ = 0;
@@ -212,8 +212,8 @@ class GpuEngine : public DisparityEngine {
 
 }  // namespace
 
-gpu::SgmParams sgm_params(const EngineConfig& c) {
-  gpu::SgmParams p;
+gpu::SgmConfig sgm_params(const EngineConfig& c) {
+  gpu::SgmConfig p;
   p.paths = c.sgm_paths;
   p.segment = c.sgm_segment;
   if (c.p1 >= 0) p.p1 = c.p1;
@@ -226,8 +226,8 @@ gpu::SgmParams sgm_params(const EngineConfig& c) {
   return p;
 }
 
-gpu::DicParams dic_params(const DicConfig& c, int rows) {
-  gpu::DicParams p;
+gpu::DicKernelConfig dic_params(const DicConfig& c, int rows) {
+  gpu::DicKernelConfig p;
   p.half_window = c.half_window;
   p.half_height = c.half_height > 0 ? c.half_height : c.half_window;
   p.max_iterations = c.max_iterations;

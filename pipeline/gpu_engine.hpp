@@ -11,10 +11,10 @@
 namespace rutd {
 
 // Throws std::invalid_argument for parameters the matcher refuses.
-gpu::SgmParams sgm_params(const EngineConfig& config);
+gpu::SgmConfig sgm_params(const EngineConfig& config);
 
 // DicConfig resolved for the GPU's DIC on a strip of `rows` rows (half_height, row_step, row_end given).
-gpu::DicParams dic_params(const DicConfig& config, int rows);
+gpu::DicKernelConfig dic_params(const DicConfig& config, int rows);
 
 class SgmReferenceEngine : public DisparityEngine {
  public:
@@ -24,7 +24,7 @@ class SgmReferenceEngine : public DisparityEngine {
   void compute(const cv::Mat& left, const cv::Mat& right, DisparityBand band, cv::Mat& disparity) override;
 
  private:
-  gpu::SgmParams params_;
+  gpu::SgmConfig params_;
   gpu::SgmStages stages_;
 };
 

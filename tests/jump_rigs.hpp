@@ -7,13 +7,13 @@
 namespace rutd::test {
 
 struct JumpRigs {
-  static SynthConfig high_config() {
-    SynthConfig c;
+  static SyntheticRendererConfig high_config() {
+    SyntheticRendererConfig c;
     c.rut.depth_mm = 45;
     return c;
   }
-  static SynthConfig low_config() {
-    SynthConfig c = high_config();
+  static SyntheticRendererConfig low_config() {
+    SyntheticRendererConfig c = high_config();
     c.rig.height_mm = 270;
     c.rut.depth_mm = 30;
     return c;

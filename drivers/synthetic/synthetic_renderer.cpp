@@ -183,7 +183,7 @@ void validate_rig(const RigConfig& rig) {
   }
 }
 
-void validate_params(const SynthConfig& p) {
+void validate_params(const SyntheticRendererConfig& p) {
   validate_rig(p.rig);
   validate(p.rut, p.depth_profile.empty());
   validate(p.depth_profile);
@@ -377,7 +377,7 @@ double cast_ray(const RutTerrain& terrain, const cv::Vec3d& o, const cv::Vec3d& 
 // ---------------------------------------------------------------------------------------------------
 // Construction
 
-SyntheticRenderer::SyntheticRenderer(const SynthConfig& params)
+SyntheticRenderer::SyntheticRenderer(const SyntheticRendererConfig& params)
     : params_(params), texture_((validate_params(params), params.texture), params.seed) {
   const RigConfig& rig = params_.rig;
   const cv::Size size = rig.image_size;

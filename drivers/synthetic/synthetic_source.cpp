@@ -21,7 +21,7 @@ void sleep_until_ns(std::int64_t deadline_ns) {
 
 }  // namespace
 
-SyntheticSource::SyntheticSource(const SynthConfig& params, SyntheticSourceConfig options, IoFaults* faults)
+SyntheticSource::SyntheticSource(const SyntheticRendererConfig& params, SyntheticSourceConfig options, IoFaults* faults)
     : renderer_(params), options_(options), faults_(faults) {}
 
 void SyntheticSource::wait_for_slot() {

@@ -16,7 +16,7 @@ int mirror(int k, int n) { return k < 0 ? -k : k > n - 1 ? 2 * (n - 1) - k : k; 
 
 }  // namespace
 
-std::string check_dic_params(const DicParams& p) {
+std::string check_dic_kernel_config(const DicKernelConfig& p) {
   if (p.half_window < 1 || p.half_window > 15 || p.half_height < 1 || p.half_height > 15)
     return "DIC half window and height must be 1..15";
   if (p.step < 1 || p.row_step < 1) return "DIC steps must be >= 1";
@@ -49,7 +49,7 @@ void bspline_reference(const ImageView& im, std::vector<float>& coef) {
   }
 }
 
-ColumnBlocks::ColumnBlocks(const DicParams& p, int height) {
+ColumnBlocks::ColumnBlocks(const DicKernelConfig& p, int height) {
   row_begin = std::clamp(p.row_begin, 0, height);
   rows = std::clamp(p.row_end, row_begin, height) - row_begin;
   count = rows == 0 ? 0 : p.column_block_rows > 0 ? std::max(1, rows / p.column_block_rows) : 1;
@@ -97,8 +97,8 @@ struct Images {
 // One window, columns [x0, x1] and rows [y0, y1] around (x, y), from disparity d0: true when it
 // converged and passed every test, with the warp x_right = x + c + a xi + b eta in (b, c). hh: the half
 // height the convergence test weighs the row slope with.
-bool refine_window(const Images& im, int x, int y, int x0, int x1, int y0, int y1, int hh, float d0, const DicParams& p,
-                   float& b_out, float& c_out) {
+bool refine_window(const Images& im, int x, int y, int x0, int x1, int y0, int y1, int hh, float d0,
+                   const DicKernelConfig& p, float& b_out, float& c_out) {
   const auto n = static_cast<float>((x1 - x0 + 1) * (y1 - y0 + 1));
   float f_sum = 0, ff = 0;
   float hm[6] = {};  // H00 H01 H02 H11 H12 H22
@@ -231,7 +231,7 @@ bool column_start(const std::vector<float>& initial, int w, int x, int y0, int y
 }  // namespace
 
 void dic_reference(const ImageView& left, const std::vector<float>& coef_l, const std::vector<float>& coef_r,
-                   const std::vector<float>& initial, const DicParams& p, std::vector<float>& refined) {
+                   const std::vector<float>& initial, const DicKernelConfig& p, std::vector<float>& refined) {
   const int w = left.width, h = left.height;
   refined.assign(initial.size(), std::numeric_limits<float>::quiet_NaN());
   if (w < 4) return;

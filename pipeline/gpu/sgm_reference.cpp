@@ -30,7 +30,7 @@ void line_start(int w, int h, int dx, int dy, int line, int& x, int& y) {
 
 }  // namespace
 
-std::string check_sgm_input(int width, int height, SgmBand band, const SgmParams& params) {
+std::string check_sgm_input(int width, int height, SgmBand band, const SgmConfig& params) {
   if (width < 1 || height < 1) return "empty image";
   if (band.min_disparity < 0) return "min_disparity must be >= 0";
   if (band.num_disparities < 2 || band.num_disparities > kMaxDisparities || band.num_disparities % 2 != 0)
@@ -69,7 +69,7 @@ void census_reference(const ImageView& im, std::vector<std::uint32_t>& out) {
   }
 }
 
-void aggregate_reference(SgmStages& st, const SgmParams& params) {
+void aggregate_reference(SgmStages& st, const SgmConfig& params) {
   const int w = st.width, h = st.height, nd = st.band.num_disparities, dmin = st.band.min_disparity;
   constexpr std::uint32_t kBig = 0xFFFF;
   st.sums.assign(static_cast<std::size_t>(w) * static_cast<std::size_t>(h) * static_cast<std::size_t>(nd), 0);
@@ -77,7 +77,7 @@ void aggregate_reference(SgmStages& st, const SgmParams& params) {
   const auto p1 = static_cast<std::uint32_t>(params.p1), p2 = static_cast<std::uint32_t>(params.p2);
   for (int dir = 0; dir < params.paths; ++dir) {
     const int dx = kDirections[static_cast<std::size_t>(dir)][0], dy = kDirections[static_cast<std::size_t>(dir)][1];
-    // Rows in segments (SgmParams::segment): segment k keeps walk steps [k S, (k + 1) S), walked from
+    // Rows in segments (SgmConfig::segment): segment k keeps walk steps [k S, (k + 1) S), walked from
     // max(0, k S - run_in).
     const bool segmented = dy == 0 && params.segment > 0;
     const int segments = segmented ? (w + params.segment - 1) / params.segment : 1;
@@ -125,7 +125,7 @@ void aggregate_reference(SgmStages& st, const SgmParams& params) {
   }
 }
 
-void wta_reference(SgmStages& st, const SgmParams& params) {
+void wta_reference(SgmStages& st, const SgmConfig& params) {
   const int w = st.width, h = st.height, nd = st.band.num_disparities, dmin = st.band.min_disparity;
   st.disparity_left.assign(static_cast<std::size_t>(w) * static_cast<std::size_t>(h), -1);
   st.disparity_right.assign(st.disparity_left.size(), -1);
@@ -173,7 +173,7 @@ void wta_reference(SgmStages& st, const SgmParams& params) {
   }
 }
 
-void lr_median_reference(SgmStages& st, const SgmParams& params) {
+void lr_median_reference(SgmStages& st, const SgmConfig& params) {
   const int w = st.width, h = st.height;
   const auto at = [w](int x, int y) {
     return static_cast<std::size_t>(y) * static_cast<std::size_t>(w) + static_cast<std::size_t>(x);
@@ -205,7 +205,7 @@ void lr_median_reference(SgmStages& st, const SgmParams& params) {
   }
 }
 
-void sgm_reference(const ImageView& left, const ImageView& right, SgmBand band, const SgmParams& params,
+void sgm_reference(const ImageView& left, const ImageView& right, SgmBand band, const SgmConfig& params,
                    SgmStages& st) {
   st.width = left.width;
   st.height = left.height;

@@ -325,15 +325,15 @@ struct VulkanSgm::Impl {
     Input input = Input::Rectified;
     int coarse_scale = 0;  // RawCoarse
     SgmBand band;
-    SgmParams params;
-    DicParams dic_params;
+    SgmConfig params;
+    DicKernelConfig dic_params;
     bool operator==(const Recorded& o) const {
       const auto tie_sgm = [](const Recorded& r) {
         return std::tie(r.band.min_disparity, r.band.num_disparities, r.params.paths, r.params.p1, r.params.p2,
                         r.params.uniqueness, r.params.lr_max_diff, r.params.median, r.params.segment,
                         r.params.segment_run_in);
       };
-      const auto tie_dic = [](const DicParams& d) {
+      const auto tie_dic = [](const DicKernelConfig& d) {
         return std::tie(d.half_window, d.half_height, d.max_iterations, d.tolerance_px, d.step, d.row_step, d.row_begin,
                         d.row_end, d.first_order, d.max_shift_px, d.max_gradient, d.min_gradient, d.min_zncc,
                         d.max_sigma_px, d.column_windows, d.column_block_rows);
@@ -699,7 +699,7 @@ struct VulkanSgm::Impl {
     vkCmdDispatch(cb, x, y, z);
   }
 
-  VkResult record(int slot, Input input, SgmBand band, const SgmParams& params, const DicParams* dic_params,
+  VkResult record(int slot, Input input, SgmBand band, const SgmConfig& params, const DicKernelConfig* dic_params,
                   const CoarseGrid& grid) {
     const VkCommandBuffer cb = slots[static_cast<std::size_t>(slot)].commands;
     constexpr VkPipelineStageFlags compute = VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT;
@@ -797,7 +797,7 @@ struct VulkanSgm::Impl {
     if (dic_params) {
       // One subgroup per window (dic.comp), at most 64 / subgroup_size of them per workgroup; a subgroup
       // smaller than the reported size only means fewer workgroups would have done.
-      const DicParams& d = *dic_params;
+      const DicKernelConfig& d = *dic_params;
       const int per_group = std::max(1, 64 / static_cast<int>(subgroup_size));
       DicPush push{};
       push.width = width;
@@ -896,8 +896,8 @@ struct VulkanSgm::Impl {
   }
 
   // grid: RawCoarse only.
-  GpuStatus submit(const ImageView& left, const ImageView& right, Input input, SgmBand band, const SgmParams& params,
-                   const DicParams* dic, int& ticket, const CoarseGrid& grid = {});
+  GpuStatus submit(const ImageView& left, const ImageView& right, Input input, SgmBand band, const SgmConfig& params,
+                   const DicKernelConfig* dic, int& ticket, const CoarseGrid& grid = {});
 };
 
 VulkanSgm::VulkanSgm(const std::string& device, int width, int height, int max_disparities, int timeout_ms,
@@ -993,7 +993,8 @@ void VulkanSgm::set_rectification(const RectifyMaps& maps) {
 }
 
 GpuStatus VulkanSgm::Impl::submit(const ImageView& left, const ImageView& right, Input input, SgmBand band,
-                                  const SgmParams& params, const DicParams* dic, int& ticket, const CoarseGrid& grid) {
+                                  const SgmConfig& params, const DicKernelConfig* dic, int& ticket,
+                                  const CoarseGrid& grid) {
   if (lost) return GpuStatus::DeviceLost;
   const bool raw = input != Input::Rectified;
   const int w = raw ? raw_width : width, h = raw ? raw_height : height;
@@ -1007,7 +1008,7 @@ GpuStatus VulkanSgm::Impl::submit(const ImageView& left, const ImageView& right,
   if (input != Input::RawOnly &&
       (band.num_disparities > max_disparities ||
        !check_sgm_input(coarse ? grid.width : width, coarse ? grid.height : height, band, params).empty() ||
-       (dic && !check_dic_params(*dic).empty())))
+       (dic && !check_dic_kernel_config(*dic).empty())))
     return GpuStatus::InvalidInput;
   ticket = next_slot;
   Slot& slot = slots[static_cast<std::size_t>(ticket)];
@@ -1024,7 +1025,7 @@ GpuStatus VulkanSgm::Impl::submit(const ImageView& left, const ImageView& right,
       std::memset(row + w, 0, row_bytes - static_cast<std::size_t>(w));
     }
   }
-  Recorded wanted{true, dic != nullptr, input, coarse ? grid.scale : 0, band, params, dic ? *dic : DicParams{}};
+  Recorded wanted{true, dic != nullptr, input, coarse ? grid.scale : 0, band, params, dic ? *dic : DicKernelConfig{}};
   VkResult r = VK_SUCCESS;
   if (!(slot.recorded == wanted)) {
     slot.recorded = Recorded{};
@@ -1046,19 +1047,19 @@ GpuStatus VulkanSgm::Impl::submit(const ImageView& left, const ImageView& right,
   return GpuStatus::Ok;
 }
 
-GpuStatus VulkanSgm::submit(const ImageView& left, const ImageView& right, SgmBand band, const SgmParams& params,
-                            const DicParams* dic, int& ticket) {
+GpuStatus VulkanSgm::submit(const ImageView& left, const ImageView& right, SgmBand band, const SgmConfig& params,
+                            const DicKernelConfig* dic, int& ticket) {
   return impl_->submit(left, right, Input::Rectified, band, params, dic, ticket);
 }
 
 GpuStatus VulkanSgm::submit_raw(const ImageView& left_raw, const ImageView& right_raw, const SgmBand* band,
-                                const SgmParams& params, const DicParams* dic, int& ticket) {
+                                const SgmConfig& params, const DicKernelConfig* dic, int& ticket) {
   return impl_->submit(left_raw, right_raw, band ? Input::Raw : Input::RawOnly, band ? *band : SgmBand{}, params,
                        band ? dic : nullptr, ticket);
 }
 
 GpuStatus VulkanSgm::submit_coarse(const ImageView& left_raw, const ImageView& right_raw, int scale, SgmBand band,
-                                   const SgmParams& params, int& ticket) {
+                                   const SgmConfig& params, int& ticket) {
   Impl& m = *impl_;
   return m.submit(left_raw, right_raw, Input::RawCoarse, band, params, nullptr, ticket,
                   coarse_grid(m.width, m.height, scale));
@@ -1123,8 +1124,8 @@ GpuStatus VulkanSgm::collect(int ticket, float* disparity, std::size_t stride, G
   return GpuStatus::Ok;
 }
 
-GpuStatus VulkanSgm::compute(const ImageView& left, const ImageView& right, SgmBand band, const SgmParams& params,
-                             const DicParams* dic, float* disparity, std::size_t stride, GpuStageTimes* times) {
+GpuStatus VulkanSgm::compute(const ImageView& left, const ImageView& right, SgmBand band, const SgmConfig& params,
+                             const DicKernelConfig* dic, float* disparity, std::size_t stride, GpuStageTimes* times) {
   int ticket = 0;
   const GpuStatus s = submit(left, right, band, params, dic, ticket);
   if (s != GpuStatus::Ok) return s;
@@ -1132,7 +1133,7 @@ GpuStatus VulkanSgm::compute(const ImageView& left, const ImageView& right, SgmB
 }
 
 GpuStatus VulkanSgm::compute_stages(const ImageView& left, const ImageView& right, SgmBand band,
-                                    const SgmParams& params, const DicParams* dic, SgmStages& st, bool raw) {
+                                    const SgmConfig& params, const DicKernelConfig* dic, SgmStages& st, bool raw) {
   Impl& m = *impl_;
   const auto pixels = static_cast<std::size_t>(m.width) * static_cast<std::size_t>(m.height);
   st.width = m.width;

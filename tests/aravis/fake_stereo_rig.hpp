@@ -64,7 +64,7 @@ inline std::string fake_rig_unavailable() {
 class FakeStereoRig {
  public:
   // Renders `views` instants of the scene (frame i at i * period) and starts both cameras.
-  FakeStereoRig(SynthConfig params, int views) : renderer_(adjusted(params)) {
+  FakeStereoRig(SyntheticRendererConfig params, int views) : renderer_(adjusted(params)) {
     for (std::size_t s = 0; s < 2; ++s) feeds_[s] = std::make_unique<Feed>();
     StereoFrame f;
     for (int i = 0; i < views; ++i) {
@@ -118,7 +118,7 @@ class FakeStereoRig {
     std::vector<cv::Mat> views16;  // the same as CV_16UC1 (x 257), for Mono16
   };
 
-  static SynthConfig adjusted(SynthConfig p) {
+  static SyntheticRendererConfig adjusted(SyntheticRendererConfig p) {
     p.fps = 1e9 / kFakePeriodNs;  // the renderer's frame i is the fake cameras' period i
     return p;
   }

@@ -32,8 +32,8 @@ std::int64_t wall_ns() {
       .count();
 }
 
-SynthConfig scene() {
-  SynthConfig p;
+SyntheticRendererConfig scene() {
+  SyntheticRendererConfig p;
   p.rig.image_size = {640, 480};
   p.rut.depth_mm = 45;
   p.seed = 5;

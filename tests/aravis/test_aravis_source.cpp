@@ -18,8 +18,8 @@ namespace {
 using Clock = std::chrono::steady_clock;
 constexpr int kViews = 6;
 
-SynthConfig scene() {
-  SynthConfig p;
+SyntheticRendererConfig scene() {
+  SyntheticRendererConfig p;
   p.rig.image_size = {640, 480};
   p.rut.depth_mm = 45;
   p.seed = 11;

@@ -58,9 +58,9 @@ TEST(BandTracking, KeepsTheBandWhileItFitsAndFollowsAJump) {
 // then too far off to start the windows (most are rejected), and the frame is matched again from the
 // engine rather than measured from what little refined.
 TEST(BandTracking, AStartThatNoLongerFitsIsMatchedAgainFromTheEngine) {
-  SynthConfig near_config;
+  SyntheticRendererConfig near_config;
   near_config.rut.depth_mm = 45;
-  SynthConfig far_config = near_config;
+  SyntheticRendererConfig far_config = near_config;
   far_config.rig.height_mm = 362;
   const SyntheticRenderer near_renderer(near_config), far_renderer(far_config);
   StereoMeasurer tracking(near_renderer.calibration(), MeasurerConfig{});

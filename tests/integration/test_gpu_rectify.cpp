@@ -71,7 +71,7 @@ MeasurerConfig gpu_config(bool on_device) {
 TEST(GpuRectify, ReferenceResamplesAsTheCpuRectifier) {
   int checked = 0;
   for (const Texture texture : {Texture::Sand, Texture::Grass}) {
-    SynthConfig config;
+    SyntheticRendererConfig config;
     config.texture = texture;
     config.rig.image_size = cv::Size(631, 479);  // odd width: the packed words' padding
     const SyntheticRenderer renderer(config);
@@ -102,7 +102,7 @@ TEST(GpuRectify, ReferenceResamplesAsTheCpuRectifier) {
 }
 
 TEST(GpuRectify, EngineRectifiesOnItsDeviceAsTheReferenceAndMeasuresAsFromCpuStrips) {
-  SynthConfig config;
+  SyntheticRendererConfig config;
   config.rut.depth_mm = 40;
   const SyntheticRenderer renderer(config);
   const StereoMeasurer device(renderer.calibration(), gpu_config(true));
@@ -192,7 +192,7 @@ TEST(GpuRectify, BandFollowsAJumpOnTheDevice) {
 }
 
 TEST(GpuRectify, SixteenBitFramesAreRectifiedOnTheCpu) {
-  SynthConfig config;
+  SyntheticRendererConfig config;
   config.bit_depth = 16;
   config.rut.depth_mm = 50;
   const SyntheticRenderer renderer(config);

@@ -54,7 +54,7 @@ TEST(PixelLocking, DicRemovesTheSubPixelBiasOfTheRutBottom) {
   std::printf("height  bottom truth px   SGBM bias px  (mm)     SGBM+DIC bias px  (mm)\n");
   // Heights 2 mm apart move the bottom's true disparity through different fractions of a pixel.
   for (double height : {350.0, 352.0, 354.0, 356.0}) {
-    SynthConfig p;
+    SyntheticRendererConfig p;
     p.rut.depth_mm = 60;
     p.rig.baseline_mm = 60;
     p.rig.height_mm = height;

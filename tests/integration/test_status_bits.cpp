@@ -42,7 +42,7 @@ std::vector<test::DecodedFrame> run_paced_replay(const std::string& synth_args, 
 // A recording of `count` pairs 1/30 s apart: the renderer's calibration, the left image from `left`
 // (empty: rendered), the right image from `right` (empty: rendered).
 void write_recording(const std::string& dir, int count, const cv::Mat& left, const cv::Mat& right) {
-  const SyntheticRenderer renderer(SynthConfig{});
+  const SyntheticRenderer renderer(SyntheticRendererConfig{});
   RecordingWriter writer(dir, renderer.calibration());
   StereoFrame frame;
   for (int i = 0; i < count; ++i) {
@@ -131,7 +131,7 @@ TEST(StatusBits, LowTextureRaisedOnAFeaturelessScene) {
   if (!test::have_canmatrix()) GTEST_SKIP() << "needs /usr/bin/python3 with canmatrix (python3-canmatrix)";
   const test::TempDir tmp;
   const std::string rec = (tmp.path() / "rec").string();
-  const cv::Mat grey(SynthConfig{}.rig.image_size, CV_8UC1, cv::Scalar(128));
+  const cv::Mat grey(SyntheticRendererConfig{}.rig.image_size, CV_8UC1, cv::Scalar(128));
   write_recording(rec, 12, grey, grey);
   const auto frames = run_and_decode("--replay " + rec + " --frames 12", tmp);
   int measurements = 0, low_texture = 0;
@@ -157,7 +157,7 @@ TEST(StatusBits, ARefusedDepthNamesItsConditionOnTheStatusFrame) {
   const test::TempDir tmp;
   const std::string rec = (tmp.path() / "rec").string();
   // The left lens covered by something dark and flat; the right camera sees the rut.
-  const cv::Mat dark(SynthConfig{}.rig.image_size, CV_8UC1, cv::Scalar(20));
+  const cv::Mat dark(SyntheticRendererConfig{}.rig.image_size, CV_8UC1, cv::Scalar(20));
   write_recording(rec, 12, dark, cv::Mat());
   const auto frames = run_and_decode("--replay " + rec + " --frames 12", tmp);
   int measurements = 0, named = 0, left_flag = 0;

@@ -41,7 +41,7 @@ TEST(Config, EmbeddedDefaultIsTheSyntheticBenchOnStdout) {
 // Every value the configuration can set, one "key=value" line each, for comparing two configurations.
 std::string dump(const RutdConfig& c) {
   std::ostringstream o;
-  const SynthConfig& y = c.synthetic;
+  const SyntheticRendererConfig& y = c.synthetic;
   o << "source=" << static_cast<int>(c.source) << "\nsize=" << y.rig.image_size << "\nfps=" << y.fps
     << "\nbaseline=" << y.rig.baseline_mm << "\nheight=" << y.rig.height_mm << "\nroll=" << y.rig.roll_deg
     << "\npitch=" << y.rig.pitch_deg << "\nhfov=" << y.rig.hfov_deg << "\ntexture=" << static_cast<int>(y.texture)

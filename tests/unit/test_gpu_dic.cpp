@@ -23,7 +23,7 @@ using namespace known_disparity;
 gpu::ImageView view(const cv::Mat& m) { return gpu::ImageView{m.data, m.cols, m.rows, m.step[0]}; }
 
 // The reference DIC of the GPU on `initial` (CV_32F), as a cv::Mat.
-cv::Mat reference_dic(const Pair& pair, const cv::Mat& initial, const gpu::DicParams& p) {
+cv::Mat reference_dic(const Pair& pair, const cv::Mat& initial, const gpu::DicKernelConfig& p) {
   std::vector<float> coef_l, coef_r, in(initial.begin<float>(), initial.end<float>()), out;
   gpu::bspline_reference(view(pair.left), coef_l);
   gpu::bspline_reference(view(pair.right), coef_r);
@@ -62,7 +62,7 @@ TEST(GpuDic, ReferenceRemovesPixelLockingLikeTheCpuDic) {
     sgm->compute(pair.left, pair.right, {16, 48}, initial);
     const int x_min = 64;
     const Error before = error_of(initial, t.d0, t.slope, x_min);
-    gpu::DicParams p;
+    gpu::DicKernelConfig p;
     const cv::Mat gpu_dic = reference_dic(pair, initial, p);
     const Error after = error_of(gpu_dic, t.d0, t.slope, x_min);
     cv::Mat cpu_dic = initial.clone();
@@ -96,7 +96,7 @@ TEST(GpuDic, EngineRefinesOnTheDeviceAsTheReference) {
       GTEST_SKIP() << "no usable Vulkan device: the GPU engine runs as sgmref, which does not refine";
     cv::Mat initial;
     make_cpu_engine(EngineKind::SgmRef)->compute(pair.left, pair.right, {16, 48}, initial);
-    gpu::DicParams p;
+    gpu::DicKernelConfig p;
     p.row_step = 2;
     p.row_begin = 4;
     p.row_end = 44;
@@ -129,8 +129,8 @@ const ColumnCase kColumnCases[] = {
 // Truth of a column case at (x, y).
 double column_truth(const ColumnCase& c, int x, int y) { return c.d0 + c.slope * x + c.slope_y * y; }
 
-gpu::DicParams column_params(const ColumnCase& c) {
-  gpu::DicParams p;
+gpu::DicKernelConfig column_params(const ColumnCase& c) {
+  gpu::DicKernelConfig p;
   p.column_windows = true;
   p.column_block_rows = c.block_rows;
   p.row_begin = c.row_begin;
@@ -149,7 +149,7 @@ DicConfig column_config(const ColumnCase& c) {
 }
 
 // Windows refined (a block's first row at each column), and pixels refined outside [row_begin, row_end).
-std::pair<int, int> column_windows_refined(const cv::Mat& d, const gpu::DicParams& p) {
+std::pair<int, int> column_windows_refined(const cv::Mat& d, const gpu::DicKernelConfig& p) {
   const gpu::ColumnBlocks blocks(p, d.rows);
   int windows = 0, outside = 0;
   for (int b = 0; b < blocks.count; ++b)
@@ -182,7 +182,7 @@ TEST(GpuDic, ReferenceColumnWindowsAreTheCpuColumnWindows) {
     const Pair pair = render_pair(c.d0, c.slope, c.size, c.seed, 0.7, c.slope_y);
     cv::Mat initial;
     sgm->compute(pair.left, pair.right, {16, 48}, initial);
-    const gpu::DicParams p = column_params(c);
+    const gpu::DicKernelConfig p = column_params(c);
     const cv::Mat gpu_dic = reference_dic(pair, initial, p);
     cv::Mat cpu_dic = initial.clone();
     const DicConfig config = column_config(c);
@@ -217,7 +217,7 @@ TEST(GpuDic, EngineRefinesColumnWindowsOnTheDeviceAsTheReference) {
       GTEST_SKIP() << "no usable Vulkan device: the GPU engine runs as sgmref, which does not refine";
     cv::Mat initial;
     make_cpu_engine(EngineKind::SgmRef)->compute(pair.left, pair.right, {16, 48}, initial);
-    const gpu::DicParams p = column_params(c);
+    const gpu::DicKernelConfig p = column_params(c);
     const cv::Mat expected = reference_dic(pair, initial, p);
     const auto [diff, one_side] = compare(refined, expected);
     const auto [windows, outside] = column_windows_refined(expected, p);

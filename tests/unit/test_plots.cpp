@@ -153,7 +153,7 @@ TEST(Plots, DisparitySeriesAndOverlayHaveTheirSizeAndContent) {
 
 // One rendered pair measured stage by stage, as the pipeline hands it to its sinks.
 struct Measured {
-  SynthConfig config;
+  SyntheticRendererConfig config;
   std::unique_ptr<SyntheticRenderer> renderer;
   std::unique_ptr<StereoMeasurer> measurer;
   FrameWork work;

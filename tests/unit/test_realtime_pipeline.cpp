@@ -618,8 +618,8 @@ struct RealRig {
     cv::setNumThreads(0);
 #endif
   }
-  static SynthConfig params() {
-    SynthConfig p;
+  static SyntheticRendererConfig params() {
+    SyntheticRendererConfig p;
     p.rig.image_size = {320, 240};
     return p;
   }

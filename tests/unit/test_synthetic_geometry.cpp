@@ -17,8 +17,8 @@ namespace {
 constexpr double kPi = std::numbers::pi;
 constexpr double kDeg = kPi / 180;
 
-SynthConfig small_params() {
-  SynthConfig p;
+SyntheticRendererConfig small_params() {
+  SyntheticRendererConfig p;
   p.rig.image_size = {320, 240};
   return p;
 }
@@ -73,7 +73,7 @@ TEST(SyntheticGeometry, PixelRaysReprojectOntoTheirPixels) {
 }
 
 TEST(SyntheticGeometry, FlatGroundHitIsAtCameraHeight) {
-  SynthConfig p = small_params();
+  SyntheticRendererConfig p = small_params();
   p.rut.lateral_offset_mm = 5000;  // out of view: flat ground only
   const SyntheticRenderer renderer(p);
   for (double x : {-0.8, -0.3, 0.0, 0.25, 0.7}) {
@@ -87,7 +87,7 @@ TEST(SyntheticGeometry, FlatGroundHitIsAtCameraHeight) {
 }
 
 TEST(SyntheticGeometry, FlatGroundUnderRollAndPitchFollowsTheRigConvention) {
-  SynthConfig p = small_params();
+  SyntheticRendererConfig p = small_params();
   p.rut.lateral_offset_mm = 5000;
   p.rig.roll_deg = 6;
   p.rig.pitch_deg = -4;
@@ -141,7 +141,7 @@ double brute_force_hit(const RutShape& shape, const cv::Vec3d& o, const cv::Vec3
 }
 
 // Random rays and rays aimed just below each pile crest, against brute_force_hit.
-void expect_first_hits_match_brute_force(const SynthConfig& p) {
+void expect_first_hits_match_brute_force(const SyntheticRendererConfig& p) {
   const SyntheticRenderer renderer(p);
   const std::uint64_t index = 11;
   const cv::Vec3d o = renderer.camera_centre(Camera::Left, index);
@@ -182,8 +182,8 @@ void expect_first_hits_match_brute_force(const SynthConfig& p) {
   EXPECT_LT(worst, 0.01);
 }
 
-SynthConfig occluding_params() {
-  SynthConfig p = small_params();
+SyntheticRendererConfig occluding_params() {
+  SyntheticRendererConfig p = small_params();
   p.rig.roll_deg = 8;
   p.rut.pile_left_mm = 35;  // tall, narrow piles occlude the walls behind them
   p.rut.pile_right_mm = 25;
@@ -193,7 +193,7 @@ SynthConfig occluding_params() {
 }
 
 TEST(SyntheticGeometry, FirstHitMatchesBruteForceWithOcclusionWanderAndTread) {
-  SynthConfig p = occluding_params();  // the general terrain: marched
+  SyntheticRendererConfig p = occluding_params();  // the general terrain: marched
   p.rut.wander_amplitude_mm = 30;
   p.rut.wander_wavelength_mm = 700;
   p.rut.tread = true;
@@ -201,7 +201,7 @@ TEST(SyntheticGeometry, FirstHitMatchesBruteForceWithOcclusionWanderAndTread) {
 }
 
 TEST(SyntheticGeometry, FirstHitMatchesBruteForceOnAStraightRutWithOcclusion) {
-  SynthConfig p = occluding_params();  // a straight rut without tread: solved piece by piece
+  SyntheticRendererConfig p = occluding_params();  // a straight rut without tread: solved piece by piece
   expect_first_hits_match_brute_force(p);
   p.rig.roll_deg = -5, p.rig.pitch_deg = 12;
   p.rut.bottom_width_mm = 0;  // no flat bottom: the walls meet
@@ -212,7 +212,7 @@ TEST(SyntheticGeometry, FirstHitMatchesBruteForceOnAStraightRutWithOcclusion) {
 
 TEST(SyntheticGeometry, StraightDownTheRutAxis) {
   // Rays in a plane of constant world x (d_x = 0 exactly) meet the profile at that x.
-  SynthConfig p = small_params();
+  SyntheticRendererConfig p = small_params();
   p.rig.baseline_mm = 100;  // left camera at x = -50
   const SyntheticRenderer renderer(p);
   const RutTerrain terrain(p.rut, p.rut.depth_mm);
@@ -224,7 +224,7 @@ TEST(SyntheticGeometry, StraightDownTheRutAxis) {
 }
 
 TEST(SyntheticGeometry, CalibrationMatchesTheRig) {
-  const SynthConfig p = small_params();
+  const SyntheticRendererConfig p = small_params();
   const SyntheticRenderer renderer(p);
   const StereoCalibration& c = renderer.calibration();
   EXPECT_EQ(c.image_size, p.rig.image_size);
@@ -267,23 +267,23 @@ TEST(SyntheticGeometry, MisalignedRowsLineUpOnlyAfterRectification) {
 
 TEST(SyntheticGeometry, ImpossibleParametersAreRejected) {
   const auto rejects = [](auto change) {
-    SynthConfig p = small_params();
+    SyntheticRendererConfig p = small_params();
     change(p);
     EXPECT_THROW(SyntheticRenderer{p}, std::invalid_argument);
   };
-  rejects([](SynthConfig& p) { p.rig.baseline_mm = 0; });
-  rejects([](SynthConfig& p) { p.rig.height_mm = 15; });
-  rejects([](SynthConfig& p) { p.rig.hfov_deg = 170; });
-  rejects([](SynthConfig& p) { p.rig.image_size = {8, 8}; });
-  rejects([](SynthConfig& p) { p.rig.distortion_left[0] = -0.9; });  // folds over inside the image
-  rejects([](SynthConfig& p) { p.rut.bottom_width_mm = p.rut.width_mm; });
-  rejects([](SynthConfig& p) { p.rut.pile_left_mm = -1; });
-  rejects([](SynthConfig& p) { p.rut.depth_mm = NAN; });
-  rejects([](SynthConfig& p) { p.fps = 0; });
-  rejects([](SynthConfig& p) { p.supersample = 0; });
-  rejects([](SynthConfig& p) { p.bit_depth = 12; });
-  rejects([](SynthConfig& p) { p.depth_profile = {{5, 30}, {5, 40}}; });
-  rejects([](SynthConfig& p) { p.depth_profile = {{0, 30}, {9, 0}}; });
+  rejects([](SyntheticRendererConfig& p) { p.rig.baseline_mm = 0; });
+  rejects([](SyntheticRendererConfig& p) { p.rig.height_mm = 15; });
+  rejects([](SyntheticRendererConfig& p) { p.rig.hfov_deg = 170; });
+  rejects([](SyntheticRendererConfig& p) { p.rig.image_size = {8, 8}; });
+  rejects([](SyntheticRendererConfig& p) { p.rig.distortion_left[0] = -0.9; });  // folds over inside the image
+  rejects([](SyntheticRendererConfig& p) { p.rut.bottom_width_mm = p.rut.width_mm; });
+  rejects([](SyntheticRendererConfig& p) { p.rut.pile_left_mm = -1; });
+  rejects([](SyntheticRendererConfig& p) { p.rut.depth_mm = NAN; });
+  rejects([](SyntheticRendererConfig& p) { p.fps = 0; });
+  rejects([](SyntheticRendererConfig& p) { p.supersample = 0; });
+  rejects([](SyntheticRendererConfig& p) { p.bit_depth = 12; });
+  rejects([](SyntheticRendererConfig& p) { p.depth_profile = {{5, 30}, {5, 40}}; });
+  rejects([](SyntheticRendererConfig& p) { p.depth_profile = {{0, 30}, {9, 0}}; });
 }
 
 }  // namespace

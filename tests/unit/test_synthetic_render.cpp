@@ -19,8 +19,8 @@
 namespace rutd {
 namespace {
 
-SynthConfig quiet_params() {
-  SynthConfig p;
+SyntheticRendererConfig quiet_params() {
+  SyntheticRendererConfig p;
   p.noise_sigma = 0;
   p.full_well_e = 0;
   return p;
@@ -33,7 +33,7 @@ double mean_abs_diff(const cv::Mat& a, const cv::Mat& b) {
 }
 
 TEST(SyntheticRender, RightImageAgreesWithCalibrationAndGeometry) {
-  const SynthConfig p = quiet_params();
+  const SyntheticRendererConfig p = quiet_params();
   const SyntheticRenderer renderer(p);
   StereoFrame frame;
   renderer.render(2, frame);
@@ -73,7 +73,7 @@ TEST(SyntheticRender, RightImageAgreesWithCalibrationAndGeometry) {
 TEST(SyntheticRender, TextureIsWorldFixed) {
   // Pinhole cameras over flat ground moving by exactly 7 pixel rows per frame: frame k+1 must be frame
   // k shifted by 7 rows (the camera's Y axis is world -y, so the scene moves to larger v).
-  SynthConfig p = quiet_params();
+  SyntheticRendererConfig p = quiet_params();
   p.rig.image_size = {320, 240};
   p.rig.distortion_left = p.rig.distortion_right = cv::Vec<double, 5>(0, 0, 0, 0, 0);
   p.rut.lateral_offset_mm = 5000;
@@ -98,7 +98,7 @@ TEST(SyntheticRender, TextureIsWorldFixed) {
 // absolute difference between the moved image and the resampled one, in 8-bit grey levels, and the
 // image's standard deviation in `contrast`.
 double half_pixel_resampling_error(Texture texture, int supersample, bool band_limit, double& contrast) {
-  SynthConfig p = quiet_params();
+  SyntheticRendererConfig p = quiet_params();
   p.texture = texture;
   p.rig.image_size = {320, 240};
   p.rig.hfov_deg = 42;  // 0.84 mm per pixel at 350 mm, as a 640 px wide image at the default 75 degrees
@@ -151,14 +151,14 @@ TEST(SyntheticRender, SilhouettesAreSupersampled) {
   // Tall piles hide part of the wall behind them; the silhouette pixels of a one-sample render differ
   // from a densely supersampled reference, far less so with edge supersampling. Snow: its faint texture
   // keeps the differences away from the silhouettes small.
-  SynthConfig p = quiet_params();
+  SyntheticRendererConfig p = quiet_params();
   p.texture = Texture::Snow;
   p.rig.image_size = {320, 240};
   p.rig.roll_deg = 8;
   p.rut.pile_left_mm = p.rut.pile_right_mm = 35;
   p.rut.pile_width_mm = 30;
   const auto render = [&](int supersample, int edge) {
-    SynthConfig q = p;
+    SyntheticRendererConfig q = p;
     q.supersample = supersample;
     q.edge_supersample = edge;
     StereoFrame frame;
@@ -197,7 +197,7 @@ TEST(SyntheticRender, SilhouettesAreSupersampled) {
 }
 
 TEST(SyntheticRender, DeterministicPerSeedFrameAndCamera) {
-  SynthConfig p;
+  SyntheticRendererConfig p;
   p.rig.image_size = {160, 120};
   p.speed_mm_s = 0;  // same scene every frame: only the noise changes
   StereoFrame a, b, c, d;
@@ -218,7 +218,7 @@ TEST(SyntheticRender, DeterministicPerSeedFrameAndCamera) {
 TEST(SyntheticRender, SnowHasMuchLessContrastThanSand) {
   double stddev[4], mean[4];
   for (Texture texture : {Texture::Sand, Texture::Mud, Texture::Snow, Texture::Grass}) {
-    SynthConfig p = quiet_params();
+    SyntheticRendererConfig p = quiet_params();
     p.texture = texture;
     p.rut.lateral_offset_mm = 5000;  // texture only, no shading of walls
     StereoFrame frame;
@@ -238,7 +238,7 @@ TEST(SyntheticRender, SnowHasMuchLessContrastThanSand) {
 TEST(SyntheticRender, RendersBothSizesAndReportsTimes) {
   StereoFrame frame;
   for (const cv::Size size : {cv::Size(640, 480), cv::Size(1280, 1024)}) {
-    SynthConfig p;
+    SyntheticRendererConfig p;
     p.rig.image_size = size;
     const SyntheticRenderer renderer(p);
     double best_ms = 1e30, cpu_ms = 0;  // wall: best of 3 (a shared machine); CPU: the mean
@@ -263,7 +263,7 @@ TEST(SyntheticRender, RendersBothSizesAndReportsTimes) {
     EXPECT_LT(mean, 200);
   }
   // A frame that already fits is refilled in place.
-  SynthConfig p;
+  SyntheticRendererConfig p;
   p.rig.image_size = {1280, 1024};
   p.supersample = 1;
   const uchar* left = frame.left.data;
@@ -274,7 +274,7 @@ TEST(SyntheticRender, RendersBothSizesAndReportsTimes) {
 }
 
 TEST(SyntheticSource, ProducesTheRenderersFramesInSequence) {
-  SynthConfig p;
+  SyntheticRendererConfig p;
   p.rig.image_size = {96, 64};
   SyntheticSource source(p, {.paced = false, .first_index = 5, .frame_count = 3});
   const SyntheticRenderer reference(p);
@@ -293,7 +293,7 @@ TEST(SyntheticSource, ProducesTheRenderersFramesInSequence) {
 }
 
 TEST(SyntheticSource, PacedFramesCarryIncreasingMonotonicTimes) {
-  SynthConfig p;
+  SyntheticRendererConfig p;
   p.rig.image_size = {64, 48};
   p.fps = 100;
   SyntheticSource source(p);
@@ -312,7 +312,7 @@ TEST(SyntheticSource, PacedFramesCarryIncreasingMonotonicTimes) {
 // then timeouts. A lost pop loses that period's pair (its index is skipped, as a camera's frame would
 // be); the pairs delivered are still exactly the renderer's pairs for their index.
 TEST(SyntheticSource, CameraPopFaultsLoseThatPeriodsPair) {
-  SynthConfig p;
+  SyntheticRendererConfig p;
   p.rig.image_size = {96, 64};
   const SyntheticRenderer reference(p);
   StereoFrame frame, expected;

@@ -21,15 +21,15 @@ namespace {
 
 constexpr double kDeg = std::numbers::pi / 180;
 
-SynthConfig aligned_params() {
-  SynthConfig p;
+SyntheticRendererConfig aligned_params() {
+  SyntheticRendererConfig p;
   p.rig.image_size = {320, 240};
   p.rig.misalign_yaw_deg = p.rig.misalign_pitch_deg = p.rig.misalign_roll_deg = 0;
   return p;
 }
 
 TEST(SyntheticTruth, AnalyticValuesForALevelAlignedRig) {
-  SynthConfig p = aligned_params();
+  SyntheticRendererConfig p = aligned_params();
   p.rut.pile_left_mm = 10;
   p.rut.pile_right_mm = 15;
   p.rut.lateral_offset_mm = 20;
@@ -51,7 +51,7 @@ TEST(SyntheticTruth, AnalyticValuesForALevelAlignedRig) {
 }
 
 TEST(SyntheticTruth, SlopeSignUnderRollMatchesTwoGroundPoints) {
-  SynthConfig p = aligned_params();
+  SyntheticRendererConfig p = aligned_params();
   p.rig.roll_deg = 5;  // right camera lower: ground at larger X is closer
   p.rut.width_mm = 120, p.rut.bottom_width_mm = 60, p.rut.pile_width_mm = 20;
   const SyntheticRenderer renderer(p);
@@ -126,7 +126,7 @@ Measured measure_cross_section(const SyntheticRenderer& renderer, std::uint64_t 
   return out;
 }
 
-void expect_truth_matches_cross_section(const SynthConfig& p, std::uint64_t index) {
+void expect_truth_matches_cross_section(const SyntheticRendererConfig& p, std::uint64_t index) {
   const SyntheticRenderer renderer(p);
   const RutTruth t = renderer.truth(index);
   const Measured m = measure_cross_section(renderer, index, p.rut.width_mm / 2 + p.rut.pile_width_mm + 25);
@@ -144,7 +144,7 @@ void expect_truth_matches_cross_section(const SynthConfig& p, std::uint64_t inde
 }
 
 TEST(SyntheticTruth, MatchesRayCastCrossSectionUnderRollPitchAndMisalignment) {
-  SynthConfig p;
+  SyntheticRendererConfig p;
   p.rig.image_size = {320, 240};
   p.rig.roll_deg = 4;
   p.rig.pitch_deg = 8;
@@ -156,7 +156,7 @@ TEST(SyntheticTruth, MatchesRayCastCrossSectionUnderRollPitchAndMisalignment) {
 }
 
 TEST(SyntheticTruth, MatchesRayCastCrossSectionOfAWanderingRut) {
-  SynthConfig p;
+  SyntheticRendererConfig p;
   p.rig.image_size = {320, 240};
   p.rig.roll_deg = -3;
   p.rut.width_mm = 160, p.rut.bottom_width_mm = 60, p.rut.depth_mm = 35, p.rut.pile_width_mm = 30;
@@ -167,7 +167,7 @@ TEST(SyntheticTruth, MatchesRayCastCrossSectionOfAWanderingRut) {
 }
 
 TEST(SyntheticTruth, DepthFollowsThePiecewiseLinearProfile) {
-  SynthConfig p = aligned_params();
+  SyntheticRendererConfig p = aligned_params();
   p.depth_profile = {{10, 20}, {20, 40}, {30, 40}, {50, 10}};
   const SyntheticRenderer renderer(p);
   const std::vector<std::pair<std::uint64_t, double>> expected = {{0, 20},  {10, 20},   {15, 30}, {19, 38},  {25, 40},

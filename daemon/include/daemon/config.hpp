@@ -40,7 +40,7 @@ struct LoggingConfig {
 struct RutdConfig {
   std::string file = "(embedded default)";  // where this came from, for messages
   SourceKind source = SourceKind::Synthetic;
-  SynthConfig synthetic;
+  SyntheticRendererConfig synthetic;
   // source.synthetic.cycle_frames: > 0 renders that many pairs once at start and plays them over and over
   // at the synthetic fps, as a camera delivers (rendering a 640x480 pair costs tens of ms of CPU that a
   // camera does not); 0 renders every pair live, with its exact truth.

@@ -28,7 +28,7 @@ layout(std430, binding = 0) readonly buffer Cost { uint cost[]; };  // cost.comp
 // One buffer per direction (each within the device's storage-buffer range), [y][x][word], 4 bytes a word;
 // words per pixel: num_disparities / 16 rounded up, times 4 (the bytes past num_disparities are 0xFF).
 layout(std430, binding = 1) writeonly buffer PathCost { uint w[]; } path_cost[8];
-// segment, run_in: SgmParams::segment (0: off) and segment_run_in; workgroup z is the segment of a row.
+// segment, run_in: SgmConfig::segment (0: off) and segment_run_in; workgroup z is the segment of a row.
 layout(push_constant) uniform Params { int width, height, num_disparities, p1, p2, words, segment, run_in; } pc;
 
 const uint kBig = 0xFFFFu;  // beyond any L: the disparities outside the band

@@ -11,7 +11,7 @@
 // Two modes (specialization constant 0):
 // - per pixel: one window around each pixel of the grid (x % step == 0, y % row_step == 0, rows
 //   [row_begin, row_end)) with a valid disparity d0; workgroup (x, grid row).
-// - column windows (dic.hpp DicParams::column_windows, the geometry of pipeline/dic_refine.cpp): one
+// - column windows (dic.hpp DicKernelConfig::column_windows, the geometry of pipeline/dic_refine.cpp): one
 //   window per column and row block, as tall as the block and centred on its middle row yc, started
 //   from the median of the column's valid disparities in the block; every row y of the block gets
 //   -(c + b (y - yc)); workgroup (x, block).

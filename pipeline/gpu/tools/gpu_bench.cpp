@@ -8,7 +8,7 @@
 //   rutd-gpu-bench [--device NAME|INDEX] [--runs N] [--warmup N] [--sizes 640x480,1280x1024,640x48]
 //                  [--paths 2,4,8] [--disparities 64,128] [--left L.pgm --right R.pgm]
 //                  [--dic columns|pixels|none] [--input raw|rectified] [--segment N [--run-in N]]
-// --segment: rows aggregated in segments of N px with an N px run-in (SgmParams::segment; default 64).
+// --segment: rows aggregated in segments of N px with an N px run-in (SgmConfig::segment; default 64).
 // --input raw (the default, what the daemon runs): each frame uploads raw images and rectifies them on the
 // device through maps of a slightly rotated and scaled rig (a strip of under 480 rows is the centre of a
 // 480-row raw image, and only the raw rows its maps reach are uploaded), and downloads the rectified strips
@@ -136,7 +136,7 @@ int main(int argc, char** argv) {
   }
   const bool raw = input == "raw";
   {
-    SgmParams segmented;
+    SgmConfig segmented;
     segmented.segment = segment;
     segmented.segment_run_in = run_in;
     const std::string error = check_sgm_input(1, 1, SgmBand{0, 2}, segmented);
@@ -200,14 +200,14 @@ int main(int argc, char** argv) {
           return 1;
         }
       }
-      const auto submit = [&](const SgmParams& params, const DicParams* dic, int& ticket) {
+      const auto submit = [&](const SgmConfig& params, const DicKernelConfig* dic, int& ticket) {
         return raw ? sgm->submit_raw(l, r, &band, params, dic, ticket) : sgm->submit(l, r, band, params, dic, ticket);
       };
       const auto collect = [&](int ticket, GpuStageTimes* t) {
         return sgm->collect(ticket, out.data(), static_cast<std::size_t>(w), t, raw ? &strips : nullptr);
       };
       for (const std::string& ps : split(paths)) {
-        SgmParams params;
+        SgmConfig params;
         params.paths = std::atoi(ps.c_str());
         params.segment = segment;
         params.segment_run_in = run_in;
@@ -217,13 +217,13 @@ int main(int argc, char** argv) {
           return 2;
         }
         std::vector<double> up, rect, census, agg, wta, lrm, dict, down, total;
-        DicParams dic;
+        DicKernelConfig dic;
         dic.row_step = 2;
         if (dic_mode == "columns") {
           dic.column_windows = true;
           dic.column_block_rows = h <= 64 ? 0 : 16;  // MeasurerConfig::kMaxColumnWindowRows, kColumnBlockRows
         }
-        const DicParams* dic_ptr = dic_mode != "none" ? &dic : nullptr;
+        const DicKernelConfig* dic_ptr = dic_mode != "none" ? &dic : nullptr;
         for (int i = 0; i < warmup + runs; ++i) {
           GpuStageTimes t;
           const auto t0 = Clock::now();

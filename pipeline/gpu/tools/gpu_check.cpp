@@ -108,7 +108,8 @@ struct DicComparison {
 
 // Per pixel: every pixel is a window. Column windows: a block's rows are refined or NaN together, so a
 // window counts once (at its first row); every pixel counts towards the difference.
-DicComparison compare_dic(const std::vector<float>& ref, const std::vector<float>& dev, int width, const DicParams& p) {
+DicComparison compare_dic(const std::vector<float>& ref, const std::vector<float>& dev, int width,
+                          const DicKernelConfig& p) {
   DicComparison c;
   const int height = static_cast<int>(ref.size()) / width;
   std::vector<char> counts(ref.size(), p.column_windows ? 0 : 1);
@@ -164,7 +165,7 @@ int main(int argc, char** argv) {
   int failures = 0;
   for (std::size_t k = 0; k < list.size(); ++k) {
     const Case c = list[k];
-    SgmParams params;
+    SgmConfig params;
     constexpr int kPaths[] = {2, 4, 8};
     params.paths = kPaths[k % 3];
     params.p1 = uni(0, 30);
@@ -172,12 +173,12 @@ int main(int argc, char** argv) {
     params.uniqueness = uni(0, 25);
     params.lr_max_diff = uni(-1, 2);
     params.median = k % 4 != 3;
-    if (k % 4 == 1) {  // rows in segments (SgmParams::segment), with a run-in shorter or longer than one
+    if (k % 4 == 1) {  // rows in segments (SgmConfig::segment), with a run-in shorter or longer than one
       params.segment = uni(16, 100);
       params.segment_run_in = uni(0, 80);
     }
     const SgmBand band{c.min_disparity, c.num_disparities};
-    DicParams dic;
+    DicKernelConfig dic;
     dic.half_window = uni(2, 7);
     dic.half_height = uni(1, 7);
     dic.step = uni(1, 2);
@@ -188,7 +189,7 @@ int main(int argc, char** argv) {
     dic.max_sigma_px = k % 2 == 0 ? 0.0f : 0.2f;
     // Column windows as the measurer sets them: one block on strips of up to 64 rows (every other such
     // case here; the whole 641x48 strip in case 1), else blocks of random height.
-    DicParams columns = dic;
+    DicKernelConfig columns = dic;
     columns.column_windows = true;
     columns.column_block_rows = c.height <= 64 && k % 2 == 1 ? 0 : uni(2, 24);
     if (k == 1) {

@@ -92,7 +92,7 @@ struct EngineConfig {
   // Gpu/SgmRef: block_size, speckle and pre-filter fields do not apply (9x7 census); p1/p2 are in census
   // bits (default 10/120), uniqueness_ratio defaults to 10, disp12_max_diff as above.
   int sgm_paths = 8;       // Gpu/SgmRef: 2, 4 or 8 aggregation paths
-  int sgm_segment = 0;     // Gpu/SgmRef: rows aggregated in segments of this many px (gpu::SgmParams), 0 off
+  int sgm_segment = 0;     // Gpu/SgmRef: rows aggregated in segments of this many px (gpu::SgmConfig), 0 off
   std::string gpu_device;  // Gpu: "" the first GPU; a number: that Vulkan device index; else a name part
 };
 

@@ -13,7 +13,7 @@
 //
 // Rendering a raw pixel: its centre is undistorted once, at construction, to a ray; the ray of each of
 // the supersample x supersample sub-pixel samples is the centre ray moved by the inverse distortion
-// Jacobian (error < 1e-3 px); by default one sample per pixel, n x n at silhouettes (see SynthConfig).
+// Jacobian (error < 1e-3 px); by default one sample per pixel, n x n at silhouettes (see SyntheticRendererConfig).
 // Each sample ray is intersected exactly with the height field (first hit, so a pile may occlude the
 // wall behind it; < 1e-5 mm; see cast_ray).  The solid texture is evaluated at the hit point, band-limited to
 // the sample spacing there (ray differentials on the tangent plane), and shaded (Lambert, fixed sun +
@@ -80,7 +80,7 @@ struct SceneConditions {
   double right_roll_error_deg = 0;
 };
 
-struct SynthConfig {
+struct SyntheticRendererConfig {
   RigConfig rig;
   RutShape rut;
   Texture texture = Texture::Sand;
@@ -111,9 +111,9 @@ struct SynthConfig {
 class SyntheticRenderer {
  public:
   // Throws std::invalid_argument naming the field for impossible parameters.
-  explicit SyntheticRenderer(const SynthConfig& params);
+  explicit SyntheticRenderer(const SyntheticRendererConfig& params);
 
-  const SynthConfig& params() const noexcept { return params_; }
+  const SyntheticRendererConfig& params() const noexcept { return params_; }
   const StereoCalibration& calibration() const noexcept { return calibration_; }
   // Rotation from the raw left camera frame to the frame RutTruth is expressed in: the left rectified
   // camera frame of cv::stereoRectify(calibration) (its R1, which depends only on R and T).
@@ -165,7 +165,7 @@ class SyntheticRenderer {
   double splash_alpha(Camera camera, int u, int v) const noexcept;
   const CameraModel& model(Camera camera) const noexcept { return camera == Camera::Left ? left_ : right_; }
 
-  SynthConfig params_;
+  SyntheticRendererConfig params_;
   StereoCalibration calibration_;
   cv::Matx33d truth_rotation_;
   CameraModel left_, right_;

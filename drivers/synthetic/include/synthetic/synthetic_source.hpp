@@ -25,7 +25,8 @@ class SyntheticSource : public FrameSource {
   // Throws std::invalid_argument for impossible parameters (see SyntheticRenderer). faults: tests only
   // (core/io_faults.hpp), IoPoint::CameraPop, asked once per pair after the paced wait: the pair of that
   // period is lost as a timeout, or refused as a short or corrupt buffer (Error); not owned.
-  explicit SyntheticSource(const SynthConfig& params, SyntheticSourceConfig options = {}, IoFaults* faults = nullptr);
+  explicit SyntheticSource(const SyntheticRendererConfig& params, SyntheticSourceConfig options = {},
+                           IoFaults* faults = nullptr);
 
   SourceStatus next(StereoFrame& frame) override;
   const StereoCalibration& calibration() const override { return renderer_.calibration(); }

@@ -13,7 +13,7 @@ namespace rutd::gpu {
 
 // The fields of rutd::DicConfig the refinement uses, resolved (half_height and row_step given, row_end
 // a row index).
-struct DicParams {
+struct DicKernelConfig {
   int half_window = 5;  // px, the window is 2 h + 1 columns wide, clipped to the image
   int half_height = 5;  // px, 2 hh + 1 rows
   int max_iterations = 20;
@@ -41,7 +41,7 @@ struct DicParams {
 // refined.
 struct ColumnBlocks {
   int row_begin = 0, rows = 0, count = 0;
-  ColumnBlocks(const DicParams& p, int height);
+  ColumnBlocks(const DicKernelConfig& p, int height);
   int begin(int b) const;
   static int centre(int y0, int y1) { return (y0 + y1) / 2; }  // middle row yc of rows [y0, y1]
   // The half height the convergence test weighs the row slope with: the largest distance from a
@@ -50,7 +50,7 @@ struct ColumnBlocks {
 };
 
 // Empty when `p` is usable, else what is wrong.
-std::string check_dic_params(const DicParams& p);
+std::string check_dic_kernel_config(const DicKernelConfig& p);
 
 // Cubic B-spline coefficients of every row of `image`, row-major: the interpolation prefilter as its
 // impulse response sqrt(3) z^|j| (z = sqrt(3) - 2) truncated at |j| <= 18, on the row mirrored at its ends
@@ -61,6 +61,6 @@ void bspline_reference(const ImageView& image, std::vector<float>& coefficients)
 // rejected; per pixel, or per column and row block with p.column_windows. coef_left/coef_right:
 // bspline_reference of the images.
 void dic_reference(const ImageView& left, const std::vector<float>& coef_left, const std::vector<float>& coef_right,
-                   const std::vector<float>& initial, const DicParams& p, std::vector<float>& refined);
+                   const std::vector<float>& initial, const DicKernelConfig& p, std::vector<float>& refined);
 
 }  // namespace rutd::gpu

@@ -26,7 +26,7 @@ struct SgmBand {
   int num_disparities = 64;
 };
 
-struct SgmParams {
+struct SgmConfig {
   int paths = 8;        // 2 (horizontal), 4 (+ vertical) or 8 (+ diagonals)
   int p1 = 10;          // penalty of a 1 px disparity step between neighbours along a path (census bits)
   int p2 = 120;         // penalty of larger steps; p1 < p2 <= kMaxP2
@@ -47,7 +47,7 @@ constexpr int kMaxP2 = 191;           // keeps a path cost L <= 64 + P2 within a
 constexpr int kSubpixelScale = 64;    // fixed-point disparities are in 1/64 px
 
 // Empty when `band`/`params` can be matched on width x height images, else what is wrong.
-std::string check_sgm_input(int width, int height, SgmBand band, const SgmParams& params);
+std::string check_sgm_input(int width, int height, SgmBand band, const SgmConfig& params);
 
 // Every stage's output, row-major, width * height pixels (times disparities for the sums).
 struct SgmStages {
@@ -67,11 +67,11 @@ struct SgmStages {
 // The reference stages, each from the previous one's output in `st` (census from the images). Allocates
 // `st`'s vectors on the first call for a size, then reuses them. Inputs must pass check_sgm_input.
 void census_reference(const ImageView& image, std::vector<std::uint32_t>& out);
-void aggregate_reference(SgmStages& st, const SgmParams& params);
-void wta_reference(SgmStages& st, const SgmParams& params);
-void lr_median_reference(SgmStages& st, const SgmParams& params);
+void aggregate_reference(SgmStages& st, const SgmConfig& params);
+void wta_reference(SgmStages& st, const SgmConfig& params);
+void lr_median_reference(SgmStages& st, const SgmConfig& params);
 
 // All stages.
-void sgm_reference(const ImageView& left, const ImageView& right, SgmBand band, const SgmParams& params, SgmStages& st);
+void sgm_reference(const ImageView& left, const ImageView& right, SgmBand band, const SgmConfig& params, SgmStages& st);
 
 }  // namespace rutd::gpu

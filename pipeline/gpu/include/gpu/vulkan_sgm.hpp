@@ -94,30 +94,30 @@ class VulkanSgm {
   // overlaps its host copy with this frame's device work. Images must be width() x height(). dic: refine
   // on the device (dic.hpp; census also runs the B-spline prefilter) and return the refined disparity;
   // nullptr: return the matcher's.
-  GpuStatus submit(const ImageView& left, const ImageView& right, SgmBand band, const SgmParams& params,
-                   const DicParams* dic, int& ticket);
+  GpuStatus submit(const ImageView& left, const ImageView& right, SgmBand band, const SgmConfig& params,
+                   const DicKernelConfig* dic, int& ticket);
   // As submit(), from raw images (set_rectification() first, else InvalidInput): rectified on the device,
   // then matched. band == nullptr: rectification only; collect() then copies out the strips alone.
   GpuStatus submit_raw(const ImageView& left_raw, const ImageView& right_raw, const SgmBand* band,
-                       const SgmParams& params, const DicParams* dic, int& ticket);
+                       const SgmConfig& params, const DicKernelConfig* dic, int& ticket);
   // The band estimate's coarse pass on the device (set_rectification() first): rectifies the raw pair,
   // averages the strips to coarse_grid(width(), height(), scale) (rectify.hpp) and matches the coarse
   // images in `band` (coarse px) with `params`, without DIC. collect() then returns the coarse disparity
   // (rows of grid.width floats at `stride`), the strips and the coarse left image.
   GpuStatus submit_coarse(const ImageView& left_raw, const ImageView& right_raw, int scale, SgmBand band,
-                          const SgmParams& params, int& ticket);
+                          const SgmConfig& params, int& ticket);
   // strips: for a frame submitted raw, where its rectified strips go (nullptr: not copied); must be
   // nullptr for a frame submitted rectified. disparity may be nullptr for a rectification-only frame.
   GpuStatus collect(int ticket, float* disparity, std::size_t stride, GpuStageTimes* times = nullptr,
                     const StripsOut* strips = nullptr);
   // submit() then collect().
-  GpuStatus compute(const ImageView& left, const ImageView& right, SgmBand band, const SgmParams& params,
-                    const DicParams* dic, float* disparity, std::size_t stride, GpuStageTimes* times = nullptr);
+  GpuStatus compute(const ImageView& left, const ImageView& right, SgmBand band, const SgmConfig& params,
+                    const DicKernelConfig* dic, float* disparity, std::size_t stride, GpuStageTimes* times = nullptr);
 
   // For tests: one frame, then every stage's buffer copied back into `st` (allocates; may throw GpuError).
   // raw: left/right are raw images, rectified on the device (st.rectified_left/right filled).
-  GpuStatus compute_stages(const ImageView& left, const ImageView& right, SgmBand band, const SgmParams& params,
-                           const DicParams* dic, SgmStages& st, bool raw = false);
+  GpuStatus compute_stages(const ImageView& left, const ImageView& right, SgmBand band, const SgmConfig& params,
+                           const DicKernelConfig* dic, SgmStages& st, bool raw = false);
 
  private:
   struct Impl;

@@ -9,16 +9,16 @@
 
 namespace rutd {
 
-struct SynthOptions {
-  SynthConfig params;
+struct SceneOptions {
+  SyntheticRendererConfig params;
   std::string size = "640x480";
   std::string texture = "sand";
   std::string depth_profile;  // "frame:depth,frame:depth,..."
   std::string splash_camera = "left";
 };
 
-void add_synth_options(CLI::App& cmd, SynthOptions& options);
+void add_scene_options(CLI::App& cmd, SceneOptions& options);
 // Parses the textual options into options.params; throws CLI::ValidationError naming the option.
-SynthConfig resolve_synth_options(const SynthOptions& options);
+SyntheticRendererConfig resolve_scene_options(const SceneOptions& options);
 
 }  // namespace rutd

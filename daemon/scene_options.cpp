@@ -1,4 +1,4 @@
-#include "daemon/synth_options.hpp"
+#include "daemon/scene_options.hpp"
 
 #include <charconv>
 #include <sstream>
@@ -38,8 +38,8 @@ std::vector<std::pair<std::uint64_t, double>> parse_profile(const std::string& t
 
 }  // namespace
 
-void add_synth_options(CLI::App& cmd, SynthOptions& o) {
-  SynthConfig& p = o.params;
+void add_scene_options(CLI::App& cmd, SceneOptions& o) {
+  SyntheticRendererConfig& p = o.params;
   const std::string rig = "Rig", rut = "Rut", scene = "Scene";
   cmd.add_option("--size", o.size, "Image size WIDTHxHEIGHT")->capture_default_str()->group(rig);
   cmd.add_option("--baseline", p.rig.baseline_mm, "Stereo baseline, mm")
@@ -162,8 +162,8 @@ void add_synth_options(CLI::App& cmd, SynthOptions& o) {
       ->group(cond);
 }
 
-SynthConfig resolve_synth_options(const SynthOptions& o) {
-  SynthConfig p = o.params;
+SyntheticRendererConfig resolve_scene_options(const SceneOptions& o) {
+  SyntheticRendererConfig p = o.params;
   p.rig.image_size = parse_size(o.size);
   p.texture = *parse_texture(o.texture);  // IsMember above guarantees a known name
   if (!o.depth_profile.empty()) p.depth_profile = parse_profile(o.depth_profile);
