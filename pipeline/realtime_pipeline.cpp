@@ -10,13 +10,11 @@
 #include <cstring>
 #include <exception>
 #include <limits>
-#include <semaphore>
 #include <stdexcept>
 #include <stop_token>
 #include <thread>
 
-#include <boost/lockfree/spsc_queue.hpp>
-
+#include "core/slot_queue.hpp"
 #include "frame_pool.hpp"
 
 namespace rutd {
@@ -29,41 +27,6 @@ constexpr auto kRelaxed = std::memory_order_relaxed;
 constexpr milliseconds kWait{5};
 
 constexpr std::size_t idx(Stage s) noexcept { return static_cast<std::size_t>(s); }
-
-using SlotQueue = boost::lockfree::spsc_queue<FrameSlot*, boost::lockfree::capacity<RealtimePipeline::kMaxPoolSlots>>;
-
-// Wakes a thread that waits (bounded) for items from one or more queues. A permit is released only when
-// the waiter announced itself, so the semaphore's count stays at most one or two however long the
-// consumer stays busy (a permit per push would grow without bound when it never has to wait). No lost
-// wake-up: every operation below is sequentially consistent, so either the waiter's check of `events`
-// sees the producer's increment, or the producer's check of `waiting` sees the waiter's flag.
-struct Wakeup {
-  std::counting_semaphore<> permits{0};
-  std::atomic<std::uint64_t> events{0};
-  std::atomic<bool> waiting{false};
-
-  // After a push; any thread, several producers allowed.
-  void notify() noexcept {
-    events.fetch_add(1);
-    if (waiting.load() && waiting.exchange(false)) permits.release();
-  }
-  // The waiting thread, before it looks at its queues.
-  std::uint64_t mark() const noexcept { return events.load(); }
-  // The waiting thread, after its queues were empty: waits up to `timeout` unless notify() was called
-  // since mark() returned `since`.
-  void wait(std::uint64_t since, nanoseconds timeout) noexcept {
-    waiting.store(true);
-    if (events.load() == since) permits.try_acquire_for(timeout);
-    waiting.store(false);
-  }
-};
-
-// One SPSC hand-over: exactly one producer thread and one consumer thread. The capacity holds every
-// slot of the pool, so push() cannot fail.
-struct Link {
-  SlotQueue queue;
-  bool push(FrameSlot* slot) noexcept { return queue.push(slot); }
-};
 
 std::int64_t to_ns(milliseconds ms) noexcept { return std::chrono::duration_cast<nanoseconds>(ms).count(); }
 
@@ -142,7 +105,10 @@ std::string describe(const PipelineStats& s) {
 
 struct RealtimePipeline::Impl {
   Impl(FrameSource& src, PipelineStages& stg, MeasurementSink& snk, PipelineConfig cfg)
-      : source(src), stages(stg), sink(snk), config(std::move(cfg)), pool(config.pool_slots) {}
+      : source(src), stages(stg), sink(snk), config(std::move(cfg)), pool(config.pool_slots) {
+    for (auto& q : forward) q = std::make_unique<SlotQueue<FrameSlot>>(pool.size());
+    for (auto& q : back) q = std::make_unique<SlotQueue<FrameSlot>>(pool.size(), &slot_returned);
+  }
 
   FrameSource& source;
   PipelineStages& stages;
@@ -152,11 +118,10 @@ struct RealtimePipeline::Impl {
   FrameSlot spare;  // acquisition reads into this when no slot is free, then drops the pair
 
   // forward[k - 1] feeds stage k (Rectify..Publish); back[k - 1] returns slots from stage k to
-  // acquisition. Each has one producer and one consumer thread.
-  std::array<Link, 4> forward;
-  std::array<Wakeup, 4> forward_wakeup;  // wakes stage k waiting on forward[k - 1]
-  std::array<Link, 4> back;
-  Wakeup slot_returned;  // wakes acquisition waiting for a slot (lossless mode)
+  // acquisition, which waits on all four at once (slot_returned, lossless mode). Each has one producer
+  // and one consumer thread, and holds every slot of the pool, so a push cannot fail.
+  Wakeup slot_returned;
+  std::array<std::unique_ptr<SlotQueue<FrameSlot>>, 4> forward, back;
   // Acquisition thread only: free slots in FIFO order, so every slot is used in turn and has seen real
   // frames (content-sized buffers such as the cross-section) after the first pool_slots frames.
   std::vector<FrameSlot*> free_ring;  // pool_slots entries, sized at start
@@ -198,16 +163,14 @@ struct RealtimePipeline::Impl {
 
   // Hand-overs. The queues hold every slot of the pool, so a push cannot fail.
   void pass_on(Stage to, FrameSlot* slot) noexcept {
-    if (!forward[idx(to) - 1].push(slot)) std::terminate();
-    forward_wakeup[idx(to) - 1].notify();
+    if (!forward[idx(to) - 1]->push(slot)) std::terminate();
   }
   void give_back(Stage from, FrameSlot* slot) noexcept {
-    if (!back[idx(from) - 1].push(slot)) std::terminate();
-    if (config.lossless) slot_returned.notify();
+    if (!back[idx(from) - 1]->push(slot)) std::terminate();
   }
-  std::uint64_t input_mark(Stage stage) const noexcept { return forward_wakeup[idx(stage) - 1].mark(); }
+  std::uint64_t input_mark(Stage stage) const noexcept { return forward[idx(stage) - 1]->mark(); }
   void wait_for_input(Stage stage, std::uint64_t since, nanoseconds timeout) noexcept {
-    forward_wakeup[idx(stage) - 1].wait(since, timeout);
+    forward[idx(stage) - 1]->wait(since, timeout);
   }
   FrameSlot* take(Stage stage) noexcept;
   void reclaim() noexcept;
@@ -271,14 +234,10 @@ void RealtimePipeline::Impl::place_threads() {
 }
 
 FrameSlot* RealtimePipeline::Impl::take(Stage stage) noexcept {
-  Link& in = forward[idx(stage) - 1];
+  SlotQueue<FrameSlot>& in = *forward[idx(stage) - 1];
+  if (config.lossless) return in.pop();
   FrameSlot* newest = nullptr;
-  if (config.lossless) {
-    in.queue.pop(newest);
-    return newest;
-  }
-  FrameSlot* slot = nullptr;
-  while (in.queue.pop(slot)) {
+  while (FrameSlot* slot = in.pop()) {
     if (newest != nullptr) {
       add(dropped[idx(stage)]);
       give_back(stage, newest);
@@ -289,9 +248,8 @@ FrameSlot* RealtimePipeline::Impl::take(Stage stage) noexcept {
 }
 
 void RealtimePipeline::Impl::reclaim() noexcept {
-  FrameSlot* slot = nullptr;
-  for (Link& link : back)
-    while (link.queue.pop(slot)) push_free(slot);  // at most pool_slots: never overruns the ring
+  for (auto& queue : back)
+    while (FrameSlot* slot = queue->pop()) push_free(slot);  // at most pool_slots: never overruns the ring
 }
 
 void RealtimePipeline::Impl::acquire_loop(std::stop_token st) {

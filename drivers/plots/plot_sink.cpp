@@ -12,6 +12,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "core/monotonic_clock.hpp"
+#include "core/slot_queue.hpp"
 
 namespace rutd {
 
@@ -24,10 +25,12 @@ struct PlotSink::Job {
   RutMeasurement measurement;
 };
 
+// The slot loop of the jobs (each queue holds every job, so a push never fails), and the measurements
+// for the series by value (bounded: full drops).
 struct PlotSink::Queues {
   explicit Queues(std::size_t n) : ready(n), free(n), series(8192) {}
-  boost::lockfree::spsc_queue<Job*> ready;  // publish thread -> plot thread
-  boost::lockfree::spsc_queue<Job*> free;   // plot thread -> publish thread
+  SlotQueue<Job> ready;  // publish thread -> plot thread
+  SlotQueue<Job> free;   // plot thread -> publish thread
   boost::lockfree::spsc_queue<SeriesSample> series;
 };
 
@@ -73,12 +76,14 @@ void PlotSink::publish(const FrameWork& w, const SensorHealth&) {
     return;
   chosen_.fetch_add(1, std::memory_order_relaxed);
   Job* job = nullptr;
-  while (!queues_->free.pop(job)) {
+  for (;;) {
+    const std::uint64_t since = queues_->free.mark();
+    if ((job = queues_->free.pop()) != nullptr) break;
     if (!config_.lossless || stop_.load(std::memory_order_acquire)) {
       dropped_.fetch_add(1, std::memory_order_relaxed);
       return;
     }
-    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    queues_->free.wait(since, std::chrono::milliseconds(100));
   }
   last_plot_ns_ = now;
   job->seq = w.frame.seq;
@@ -90,7 +95,7 @@ void PlotSink::publish(const FrameWork& w, const SensorHealth&) {
   job->section.z_mm = w.section.z_mm;
   job->section.count = w.section.count;
   job->measurement = m;
-  queues_->ready.push(job);  // cannot fail: at most `queue` jobs exist
+  queues_->ready.push(job);  // cannot fail: at most `queue` jobs exist; wakes the plot thread
 }
 
 void PlotSink::note(const PlotResult& r) {
@@ -161,10 +166,12 @@ void PlotSink::write_series() {
 void PlotSink::worker() {
   auto next_series = std::chrono::steady_clock::now() + std::chrono::duration<double>(config_.series_period_s);
   for (;;) {
+    // Read before the queue: a job pushed after mark() makes wait() return at once, and finish() sets
+    // stop_ after the last publish(), so a stop seen here leaves no job unseen by the pops below.
+    const std::uint64_t since = queues_->ready.mark();
     const bool stopping = stop_.load(std::memory_order_acquire);
-    Job* job = nullptr;
     bool any = false;
-    while (queues_->ready.pop(job)) {
+    while (Job* job = queues_->ready.pop()) {
       any = true;
       plot(*job);
       queues_->free.push(job);
@@ -176,7 +183,9 @@ void PlotSink::worker() {
       write_series();
       next_series = std::chrono::steady_clock::now() + std::chrono::duration<double>(config_.series_period_s);
     }
-    if (!any) std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    // Measurements arrive without a wake-up (they are many and need no hurry): the series is read at
+    // least every 100 ms.
+    if (!any) queues_->ready.wait(since, std::chrono::milliseconds(100));
   }
   write_series();
 }
@@ -185,6 +194,7 @@ PlotSinkStats PlotSink::finish() {
   if (!finished_) {
     finished_ = true;
     stop_.store(true, std::memory_order_release);
+    queues_->ready.wake();
     if (thread_.joinable()) thread_.join();
   }
   return stats();

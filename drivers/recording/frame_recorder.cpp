@@ -1,10 +1,12 @@
 #include "recording/frame_recorder.hpp"
 
+#include <chrono>
 #include <exception>
 #include <stdexcept>
 
-#include <boost/lockfree/spsc_queue.hpp>
 #include <spdlog/spdlog.h>
+
+#include "core/slot_queue.hpp"
 
 namespace rutd {
 namespace {
@@ -25,12 +27,12 @@ const FrameRecorderConfig& checked(const FrameRecorderConfig& options) {
 
 }  // namespace
 
-// Two SPSC hand-overs of slot pointers: `ready` from the producer to the writer, `free` back. Each can
-// hold every slot, so a push never fails.
+// The slot loop: `ready` from the producer to the writer, `free` back. Each can hold every slot, so a
+// push never fails.
 struct FrameRecorder::Queues {
   explicit Queues(std::size_t capacity) : ready(capacity), free(capacity) {}
-  boost::lockfree::spsc_queue<StereoFrame*> ready;
-  boost::lockfree::spsc_queue<StereoFrame*> free;
+  SlotQueue<StereoFrame> ready;
+  SlotQueue<StereoFrame> free;
 };
 
 FrameRecorder::FrameRecorder(const std::string& dir, const StereoCalibration& calibration, FrameRecorderConfig options)
@@ -54,9 +56,9 @@ bool FrameRecorder::offer(const StereoFrame& frame) noexcept {
     add(discarded_);
     return false;
   }
-  StereoFrame* slot = spare_;
+  StereoFrame* slot = spare_ != nullptr ? spare_ : queues_->free.pop();
   spare_ = nullptr;
-  if (slot == nullptr && !queues_->free.pop(slot)) {
+  if (slot == nullptr) {
     add(dropped_);
     return false;
   }
@@ -73,9 +75,7 @@ bool FrameRecorder::offer(const StereoFrame& frame) noexcept {
   slot->seq = frame.seq;
   slot->t_ns = frame.t_ns;
   slot->clock = frame.clock;
-  queues_->ready.push(slot);
-  events_.fetch_add(1);
-  events_.notify_one();
+  queues_->ready.push(slot);  // wakes the writer
   return true;
 }
 
@@ -83,8 +83,7 @@ void FrameRecorder::close() {
   closed_ = true;
   if (!thread_.joinable()) return;
   thread_.request_stop();
-  events_.fetch_add(1);
-  events_.notify_one();
+  queues_->ready.wake();
   thread_.join();
 }
 
@@ -111,21 +110,20 @@ void FrameRecorder::write_pair(StereoFrame& frame) {
 
 void FrameRecorder::writer_loop(std::stop_token stop) {
   for (;;) {
-    // Both read before looking at the queue. A push after this load changes events_, so wait() returns
-    // at once. close() requests stop only after the producer's last push, so once `stopping` is seen
-    // every pair still queued is visible to the pops below: an empty queue then means drained.
-    const std::uint32_t seen = events_.load();
+    // Both read before looking at the queue. A push after mark() makes wait() return at once. close()
+    // requests stop only after the producer's last push, so once `stopping` is seen every pair still
+    // queued is visible to the pops below: an empty queue then means drained.
+    const std::uint64_t since = queues_->ready.mark();
     const bool stopping = stop.stop_requested();
-    StereoFrame* slot = nullptr;
     bool worked = false;
-    while (queues_->ready.pop(slot)) {
+    while (StereoFrame* slot = queues_->ready.pop()) {
       worked = true;
       write_pair(*slot);
       queues_->free.push(slot);
     }
     if (worked) continue;
     if (stopping) return;
-    events_.wait(seen);
+    queues_->ready.wait(since, std::chrono::milliseconds(100));  // bounded: close() also wakes it
   }
 }
 

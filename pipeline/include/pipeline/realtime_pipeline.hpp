@@ -1,9 +1,9 @@
 #pragma once
 // The real-time measurement pipeline (DESIGN.md, Threads and queues): five threads
 //   acquire -> rectify -> match -> extract -> publish
-// joined by bounded single-producer/single-consumer lock-free queues (Boost.Lockfree spsc_queue) that
-// carry pointers to FrameSlots of a pool allocated at start. Each stage that can let go of a slot has its
-// own SPSC return queue back to acquisition, which keeps the free list.
+// joined by bounded single-producer/single-consumer lock-free queues (SlotQueue, core/slot_queue.hpp,
+// over Boost.Lockfree) that carry pointers to FrameSlots of a pool allocated at start. Each stage that can
+// let go of a slot has its own return queue back to acquisition, which keeps the free list.
 //
 // Freshest frame wins: a stage that falls behind takes the newest queued frame and gives the older ones
 // back, counted as dropped at its input. Acquisition never waits for downstream: when every slot is in

@@ -4,11 +4,11 @@
 //
 // Threading. offer() is called by ONE producer thread (the acquisition thread, or whichever thread owns
 // the FrameSource). It copies the pair into a free slot of a pool allocated at construction and hands
-// the slot to the writer thread through a bounded lock-free SPSC queue; slots come back through a
-// second SPSC queue. PNG encoding and fsync happen on the writer thread only. When no slot is free the
-// pair is dropped and counted: acquisition is never blocked by the disk. close() (and the destructor)
-// must not run concurrently with offer(): call it from the producer thread or after it stopped.
-// stats(), failed() and error() are safe from any thread.
+// the slot to the writer thread through a SlotQueue (core/slot_queue.hpp); slots come back through a
+// second one. A producer pays a wake-up system call only when the writer is actually asleep. PNG encoding and fsync
+// happen on the writer thread only. When no slot is free the pair is dropped and counted: acquisition is never blocked
+// by the disk. close() (and the destructor) must not run concurrently with offer(): call it from the producer thread or
+// after it stopped. stats(), failed() and error() are safe from any thread.
 //
 // Crash safety (RecordingWriter's contract): a pair's images are completely written (and synced, unless
 // sync_to_disk is off) before its frames.csv line is appended, so a kill -9 at any moment (or, with
@@ -92,9 +92,6 @@ class FrameRecorder {
   StereoFrame* spare_ = nullptr;
   bool closed_ = false;  // producer side
 
-  // Bumped after every push to the writer and on stop; the writer waits on it (C++20 atomic wait), so a
-  // producer pays a wake-up system call only when the writer is actually asleep.
-  std::atomic<std::uint32_t> events_{0};  // futex-sized: wait/notify map to the futex directly
   std::atomic<std::uint64_t> offered_{0}, written_{0}, dropped_{0}, discarded_{0};
   std::atomic<bool> failed_{false};
   std::string error_;  // written once by the writer thread before failed_ is released
