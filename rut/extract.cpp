@@ -12,7 +12,7 @@
 //     crossing.
 //  4. Ground line: robust (Tukey) line fit to low-gradient bins outside the disturbed zone. Steps 3-4
 //     run twice, the second time from the fitted line.
-//  5. Figures per rut/rut_measurement.hpp, from fits rather than extreme samples where noise would bias
+//  5. Figures per core/rut_measurement.hpp, from fits rather than extreme samples where noise would bias
 //     them: depth and pile heights from parabola / flat fits around the extreme (detail::refine_max),
 //     crossings from the smoothed profile, area by trapezoids over the raw bins.
 #include "rut/extract.hpp"

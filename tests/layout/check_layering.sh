@@ -28,8 +28,8 @@ check_folder() {  # folder allowed-prefixes...
     [[ " $allowed " == *" $top "* ]] || fail "$file includes \"$inc\" ($folder may include: $allowed)"
   done < <(grep -rn '#include "' "$src/$folder" --include='*.cpp' --include='*.hpp')
 }
-check_folder rut rut
-check_folder core core rut
+check_folder rut rut core
+check_folder core core
 check_folder pipeline pipeline gpu core rut  # gpu: the Vulkan matcher, pipeline/gpu/
 check_folder drivers/can can core rut pipeline          # pipeline: can_sink.* only, checked below
 check_folder drivers/camera camera core rut

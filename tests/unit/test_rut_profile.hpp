@@ -29,7 +29,7 @@ struct RutShape {
   double right_pile = 15.0;
   double center_u = 0.0;
 
-  // Closed-form truths (rut/rut_measurement.hpp definitions).
+  // Closed-form truths (core/rut_measurement.hpp definitions).
   double width() const { return top; }
   // Bottom rectangle plus two raised-cosine walls, each of area depth * wall / 2.
   double area() const { return depth * bottom + depth * (top - bottom) / 2.0; }

@@ -79,7 +79,7 @@ struct Measured {
 };
 
 // Measures the cross-section that ray casting sees in the truth frame's plane Y = 0, with the
-// definitions of rut/rut_measurement.hpp: ground line through far undisturbed ground, heights
+// definitions of core/rut_measurement.hpp: ground line through far undisturbed ground, heights
 // perpendicular to it, crossings walking out from the deepest point.
 Measured measure_cross_section(const SyntheticRenderer& renderer, std::uint64_t index, double ground_from) {
   const cv::Matx33d R1 = renderer.truth_rotation();

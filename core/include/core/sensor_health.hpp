@@ -5,7 +5,7 @@
 // flag, in this order).
 #include <cstdint>
 
-#include "rut/rut_measurement.hpp"
+#include "core/rut_measurement.hpp"
 
 namespace rutd {
 

@@ -17,7 +17,7 @@
 #include "pipeline/disparity.hpp"
 #include "pipeline/stereo_geometry.hpp"
 #include "rut/extract.hpp"
-#include "rut/rut_measurement.hpp"
+#include "core/rut_measurement.hpp"
 
 namespace rutd {
 

@@ -20,7 +20,7 @@
 #include "pipeline/frame_checks.hpp"
 #include "pipeline/stereo_geometry.hpp"
 #include "rut/extract.hpp"
-#include "rut/rut_measurement.hpp"
+#include "core/rut_measurement.hpp"
 
 namespace rutd {
 

@@ -1,6 +1,6 @@
 #pragma once
 // Rut extraction (DESIGN.md §5): a strip of 3D points -> a lateral cross-section Z(X) -> one
-// RutMeasurement whose fields follow the definitions in rut/rut_measurement.hpp exactly.
+// RutMeasurement whose fields follow the definitions in core/rut_measurement.hpp exactly.
 //
 // All lengths are millimetres in the left rectified camera frame (X across the rut, Z distance from
 // the camera), so the results do not depend on image resolution. Nothing here throws or allocates on
@@ -10,7 +10,7 @@
 
 #include <opencv2/core.hpp>
 
-#include "rut/rut_measurement.hpp"
+#include "core/rut_measurement.hpp"
 
 namespace rutd {
 

@@ -58,7 +58,7 @@
 
 #include "can/can_frame.hpp"
 #include "core/sensor_health.hpp"
-#include "rut/rut_measurement.hpp"
+#include "core/rut_measurement.hpp"
 
 namespace rutd {
 

@@ -11,7 +11,7 @@
 #include <opencv2/core.hpp>
 
 #include "rut/extract.hpp"
-#include "rut/rut_measurement.hpp"
+#include "core/rut_measurement.hpp"
 
 namespace rutd {
 

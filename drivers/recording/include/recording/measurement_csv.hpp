@@ -15,7 +15,7 @@
 #include <string_view>
 #include <vector>
 
-#include "rut/rut_measurement.hpp"
+#include "core/rut_measurement.hpp"
 
 namespace rutd {
 

@@ -61,7 +61,7 @@ using DepthProfile = std::vector<std::pair<std::uint64_t, double>>;
 void validate(const DepthProfile& profile);
 double depth_at(const DepthProfile& profile, double constant_depth_mm, std::uint64_t index) noexcept;
 
-// Ground truth of one frame, with exactly the definitions of rut/rut_measurement.hpp, in the frame that
+// Ground truth of one frame, with exactly the definitions of core/rut_measurement.hpp, in the frame that
 // RutMeasurement uses: the left rectified camera frame (SyntheticRenderer::truth_rotation()), on the
 // cross-section in its plane Y = 0 (the rectified image row through the principal point). Millimetres.
 struct RutTruth {

@@ -1,4 +1,4 @@
-#include "rut/rut_measurement.hpp"
+#include "core/rut_measurement.hpp"
 
 namespace rutd {
 
