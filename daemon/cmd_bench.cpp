@@ -43,12 +43,12 @@ struct Options {
 class CountingSink final : public MeasurementSink {
  public:
   explicit CountingSink(std::vector<double> truth_depth_mm) : truth_(std::move(truth_depth_mm)) {}
-  void publish(const FrameWork& w, const SensorHealth&) override {
+  void publish(const PublishedFrame& f) override {
     ++published;
-    if (w.measurement.status == RutStatus::Ok) {
+    if (f.measurement.status == RutStatus::Ok) {
       ++ok;
-      depth_sum += w.measurement.depth_mm;
-      const double err = std::abs(w.measurement.depth_mm - truth_[w.frame.seq % truth_.size()]);
+      depth_sum += f.measurement.depth_mm;
+      const double err = std::abs(f.measurement.depth_mm - truth_[f.seq % truth_.size()]);
       worst_error_mm = std::max(worst_error_mm, err);
     }
   }

@@ -76,7 +76,7 @@ int run_replay(const ReplayOptions& o) {
     pc.series_period_s = 0;
     pc.lossless = true;
     try {
-      plots = std::make_unique<PlotSink>(pc, PlotContext::from(reader.calibration(), measurer));
+      plots = std::make_unique<PlotSink>(pc, PlotContext{reader.calibration(), measurer.geometry().rectification()});
     } catch (const std::invalid_argument& e) {
       throw InputError(o.plots, "--plots", e.what());
     }
@@ -111,7 +111,7 @@ int run_replay(const ReplayOptions& o) {
     }
     const RutMeasurement& m = work.measurement;
     summary.add(m, work.diag);
-    if (plots) plots->publish(work, SensorHealth{});
+    if (plots) plots->publish(published_frame(work, SensorHealth{}));
     if (!csv.write(frame.seq, frame.t_ns, m)) {
       // Measuring on with nowhere to put the result is pointless: stop, keeping the rows written so far.
       progress.clear();

@@ -141,7 +141,8 @@ int run_daemon(const RunOptions& o, const RunInjection& injection) {
     std::filesystem::create_directories(c.plots.dir, ec);
     if (ec) throw InputError(c.file, "plots.dir", c.plots.dir + ": cannot create the folder: " + ec.message());
     try {
-      plots = std::make_unique<PlotSink>(c.plots, PlotContext::from(source->calibration(), measurer));
+      plots =
+          std::make_unique<PlotSink>(c.plots, PlotContext{source->calibration(), measurer.geometry().rectification()});
     } catch (const std::invalid_argument& e) {
       throw InputError(c.file, "plots.dir", e.what());
     }

@@ -73,6 +73,11 @@ MatchContext StereoMeasurer::make_match_context() const {
 bool StereoMeasurer::rectify(FrameWork& w) const {
   w.diag = MeasurementDiagnostics{};
   w.measurement = RutMeasurement{};  // status NoMeasurement until extract() says otherwise
+  w.geometry = RutGeometry{};
+  w.measured = false;
+  w.strip_row0 = geometry_.roi().row0;
+  w.measured_row0 = config_.strip.row0;
+  w.measured_rows = config_.strip.rows;
   const cv::Mat& l = w.frame.left;
   const cv::Mat& r = w.frame.right;
   if (l.size() != image_size_ || r.size() != image_size_ || l.type() != r.type() || l.channels() != 1 ||
@@ -288,7 +293,34 @@ void StereoMeasurer::extract(FrameWork& w, RutWorkspace& workspace) const {
   w.measurement = extract_rut(w.section, config_.rut, workspace);
   check_frame(w.left_strip, w.right_strip, w.disparity, first, first + config_.strip.rows, geometry_,
               workspace.geometry, w.diag.band, config_.conditions, w.checks, w.measurement);
+  w.geometry = workspace.geometry;
+  w.measured = true;
   w.diag.rut_ms = ms_since(t0);
+}
+
+PublishedFrame published_frame(const FrameWork& w, const SensorHealth& health) {
+  PublishedFrame f;
+  f.seq = w.frame.seq;
+  f.t_ns = w.frame.t_ns;
+  f.clock = w.frame.clock;
+  f.measurement = w.measurement;
+  f.health = health;
+  if (!w.frame.left.empty()) {
+    f.left_raw = &w.frame.left;
+    f.right_raw = &w.frame.right;
+  }
+  f.times = StageTimes{w.diag.rectify_ms, w.diag.band_ms,      w.diag.disparity_ms,
+                       w.diag.dic_ms,     w.diag.reproject_ms, w.diag.rut_ms};
+  if (!w.measured) return f;
+  f.left_strip = &w.left_strip;
+  f.right_strip = &w.right_strip;
+  f.strip_row0 = w.strip_row0;
+  f.measured_row0 = w.measured_row0;
+  f.measured_rows = w.measured_rows;
+  f.disparity = &w.disparity;
+  f.section = &w.section;
+  f.geometry = &w.geometry;
+  return f;
 }
 
 RutMeasurement StereoMeasurer::measure(const cv::Mat& left_raw, const cv::Mat& right_raw) {

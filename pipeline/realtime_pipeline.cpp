@@ -367,7 +367,7 @@ void RealtimePipeline::Impl::publish_one(FrameSlot* slot) noexcept {
   const RutStatus status = slot->work.measurement.status;
   last_status.store(static_cast<std::uint8_t>(status), kRelaxed);
   try {
-    sink.publish(slot->work, health());
+    sink.publish(published_frame(slot->work, health()));
   } catch (...) {
     add(sink_errors);
   }

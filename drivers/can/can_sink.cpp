@@ -16,22 +16,27 @@ std::int64_t wall_clock_ns() {
 }  // namespace
 
 CanSink::CanSink(const CanIdConfig& ids, SocketCanBus* bus, CandumpLogWriter* log, std::ostream* log_stream,
-                 std::function<bool()> recording_failed)
-    : encoder_(ids), bus_(bus), log_(log), log_stream_(log_stream), recording_failed_(std::move(recording_failed)) {}
+                 std::function<bool()> recording_failed, CandumpTime log_time)
+    : encoder_(ids),
+      bus_(bus),
+      log_(log),
+      log_stream_(log_stream),
+      recording_failed_(std::move(recording_failed)),
+      log_time_(log_time) {}
 
-void CanSink::emit(const CanFrame& frame) {
+void CanSink::emit(const CanFrame& frame, std::int64_t frame_t_ns) {
   if (bus_ != nullptr && !bus_->send(frame)) return;
-  if (log_ != nullptr) log_->write(frame, wall_clock_ns());
+  if (log_ != nullptr) log_->write(frame, log_time_ == CandumpTime::FrameClock ? frame_t_ns : wall_clock_ns());
 }
 
-void CanSink::publish(const FrameWork& work, const SensorHealth&) {
-  const int n = encoder_.encode_measurement(work.measurement, frames_);
-  for (int i = 0; i < n; ++i) emit(frames_[static_cast<std::size_t>(i)]);
-  emit(encoder_.encode_conditions(work.measurement));
+void CanSink::publish(const PublishedFrame& frame) {
+  const int n = encoder_.encode_measurement(frame.measurement, frames_);
+  for (int i = 0; i < n; ++i) emit(frames_[static_cast<std::size_t>(i)], frame.t_ns);
+  emit(encoder_.encode_conditions(frame.measurement), frame.t_ns);
   if (log_stream_ != nullptr) log_stream_->flush();
 }
 
-void CanSink::publish_status(const SensorHealth& health, std::int64_t) {
+void CanSink::publish_status(const SensorHealth& health, std::int64_t t_ns) {
   SensorHealth h = health;
   if (bus_ != nullptr) {
     bus_->poll_errors();
@@ -45,7 +50,7 @@ void CanSink::publish_status(const SensorHealth& health, std::int64_t) {
   // The caller's answer: raised for good once the raw recording failed (the recorder does not resume by
   // itself), and for each status period in which a measurement CSV row was lost.
   if (recording_failed_ && recording_failed_()) h.recording_error = true;
-  emit(encoder_.encode_status(h));
+  emit(encoder_.encode_status(h), t_ns);
   if (log_stream_ != nullptr) log_stream_->flush();
 }
 

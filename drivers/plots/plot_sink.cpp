@@ -21,7 +21,9 @@ struct PlotSink::Job {
   std::uint64_t seq = 0;
   double t_s = 0;
   cv::Mat left_raw, disparity;
+  int strip_row0 = 0;  // rectified row of the disparity's first row
   CrossSection section;
+  RutGeometry geometry;
   RutMeasurement measurement;
 };
 
@@ -33,11 +35,6 @@ struct PlotSink::Queues {
   SlotQueue<Job> free;   // plot thread -> publish thread
   boost::lockfree::spsc_queue<SeriesSample> series;
 };
-
-PlotContext PlotContext::from(const StereoCalibration& calibration, const StereoMeasurer& measurer) {
-  const StereoGeometry& g = measurer.geometry();
-  return PlotContext{calibration, g.R1(), g.P1(), g.rectified_size(), g.roi(), measurer.config().rut};
-}
 
 PlotSink::PlotSink(PlotConfig config, PlotContext context) : config_(std::move(config)), context_(std::move(context)) {
   if (config_.queue == 0) throw std::invalid_argument("plots.queue: must be at least 1");
@@ -51,25 +48,27 @@ PlotSink::PlotSink(PlotConfig config, PlotContext context) : config_(std::move(c
     jobs_.push_back(std::make_unique<Job>());
     queues_->free.push(jobs_.back().get());
   }
-  cv::initUndistortRectifyMap(context_.calibration.M1, context_.calibration.D1, context_.R1, context_.P1,
-                              context_.rectified_size, CV_32FC1, map_x_, map_y_);
+  const StereoRectification& r = context_.rectification;
+  cv::initUndistortRectifyMap(context_.calibration.M1, context_.calibration.D1, r.R1, r.P1, r.rectified_size, CV_32FC1,
+                              map_x_, map_y_);
   thread_ = std::thread([this] { worker(); });
 }
 
 PlotSink::~PlotSink() { finish(); }
 
-void PlotSink::publish(const FrameWork& w, const SensorHealth&) {
-  const RutMeasurement& m = w.measurement;
-  if (first_t_ns_ < 0) first_t_ns_ = w.frame.t_ns;
-  const double t_s = static_cast<double>(w.frame.t_ns - first_t_ns_) * 1e-9;
-  if (!queues_->series.push(SeriesSample{w.frame.seq, t_s, m.status, m.depth_mm, m.width_mm, m.quality}))
+void PlotSink::publish(const PublishedFrame& f) {
+  const RutMeasurement& m = f.measurement;
+  if (first_t_ns_ < 0) first_t_ns_ = f.t_ns;
+  const double t_s = static_cast<double>(f.t_ns - first_t_ns_) * 1e-9;
+  if (!queues_->series.push(SeriesSample{f.seq, t_s, m.status, m.depth_mm, m.width_mm, m.quality}))
     series_dropped_.fetch_add(1, std::memory_order_relaxed);
 
   const bool changed = !have_status_ || m.status != last_status_;
   have_status_ = true;
   last_status_ = m.status;
-  const bool periodic = config_.every > 0 && w.frame.seq % config_.every == 0;
+  const bool periodic = config_.every > 0 && f.seq % config_.every == 0;
   if (!changed && !periodic) return;
+  if (f.section == nullptr || f.geometry == nullptr || f.disparity == nullptr) return;  // nothing to draw
   const std::int64_t now = monotonic_now_ns();
   if (config_.min_interval_s > 0 && last_plot_ns_ != 0 &&
       now - last_plot_ns_ < static_cast<std::int64_t>(config_.min_interval_s * 1e9))
@@ -86,14 +85,17 @@ void PlotSink::publish(const FrameWork& w, const SensorHealth&) {
     queues_->free.wait(since, std::chrono::milliseconds(100));
   }
   last_plot_ns_ = now;
-  job->seq = w.frame.seq;
+  job->seq = f.seq;
   job->t_s = t_s;
-  w.frame.left.copyTo(job->left_raw);
-  w.disparity.copyTo(job->disparity);
-  job->section.x0_mm = w.section.x0_mm;
-  job->section.dx_mm = w.section.dx_mm;
-  job->section.z_mm = w.section.z_mm;
-  job->section.count = w.section.count;
+  if (f.left_raw != nullptr) f.left_raw->copyTo(job->left_raw);
+  else job->left_raw.release();
+  f.disparity->copyTo(job->disparity);
+  job->strip_row0 = f.strip_row0;
+  job->section.x0_mm = f.section->x0_mm;
+  job->section.dx_mm = f.section->dx_mm;
+  job->section.z_mm = f.section->z_mm;
+  job->section.count = f.section->count;
+  job->geometry = *f.geometry;
   job->measurement = m;
   queues_->ready.push(job);  // cannot fail: at most `queue` jobs exist; wakes the plot thread
 }
@@ -111,9 +113,7 @@ void PlotSink::note(const PlotResult& r) {
 void PlotSink::plot(Job& job) {
   const RutMeasurement& m = job.measurement;
   const std::string stem = fmt::format("{}/frame_{:06d}_", config_.dir, job.seq);
-  RutWorkspace ws;
-  extract_rut(job.section, context_.rut, ws);  // the same measurement again, for where it lies
-  const RutGeometry& geo = ws.geometry;
+  const RutGeometry& geo = job.geometry;
   const std::string title = fmt::format("Cross-section, frame {} (t = {:.2f} s)", job.seq, job.t_s);
   bool all = true;
   const auto keep = [&](const PlotResult& r) {
@@ -121,7 +121,7 @@ void PlotSink::plot(Job& job) {
     all = all && r.ok;
   };
   keep(plot_cross_section(stem + "section.png", job.section, m, geo, title));
-  keep(plot_disparity(stem + "disparity.png", job.disparity, context_.strip.row0,
+  keep(plot_disparity(stem + "disparity.png", job.disparity, job.strip_row0,
                       fmt::format("Refined disparity of the measured strip, frame {}", job.seq)));
   if (!job.left_raw.empty()) {
     cv::Mat rectified, grey;
@@ -135,11 +135,11 @@ void PlotSink::plot(Job& job) {
     if (grey.size() == context_.calibration.image_size) {
       cv::remap(grey, rectified, map_x_, map_y_, cv::INTER_LINEAR);
       ImageMarks marks;
-      marks.strip_row0 = context_.strip.row0;
-      marks.strip_rows = context_.strip.rows;
+      marks.strip_row0 = job.strip_row0;
+      marks.strip_rows = job.disparity.rows;
       // Columns of points on the strip's middle row: u = fx X / Z + cx on the rectified image.
       if (geo.has_rut) {
-        const double fx = context_.P1(0, 0), cx = context_.P1(0, 2);
+        const double fx = context_.rectification.P1(0, 0), cx = context_.rectification.P1(0, 2);
         const auto col = [&](double x) {
           const double z = geo.line_m * x + geo.line_c;
           return z > 0 ? fx * x / z + cx : -1.0;

@@ -42,23 +42,23 @@ MeasurementCsvSink::~MeasurementCsvSink() {
   if (owns_fd_) ::close(fd_);
 }
 
-void MeasurementCsvSink::publish(const FrameWork& work, const SensorHealth&) {
+void MeasurementCsvSink::publish(const PublishedFrame& frame) {
   if (stats_.stopped) {
     ++stats_.rows_lost;
     return;
   }
-  format_measurement_row(line_, work.frame.seq, work.frame.t_ns, work.measurement);
+  format_measurement_row(line_, frame.seq, frame.t_ns, frame.measurement);
   if (fd_write_all(fd_, line_.data(), line_.size(), faults_, IoPoint::MeasurementWrite)) {
     size_ += line_.size();
     ++stats_.rows_written;
-    if (failing_) spdlog::info("measurement CSV {}: writing again from seq {}", path_, work.frame.seq);
+    if (failing_) spdlog::info("measurement CSV {}: writing again from seq {}", path_, frame.seq);
     failing_ = false;
     return;
   }
   const int error = errno;
   ++stats_.rows_lost;
   stats_.last_error =
-      path_ + ": cannot write the row of seq " + std::to_string(work.frame.seq) + ": " + std::strerror(error);
+      path_ + ": cannot write the row of seq " + std::to_string(frame.seq) + ": " + std::strerror(error);
   // Take back whatever part of the row got out, so the rows before it stay a valid CSV.
   if (!regular_file_ || ::ftruncate(fd_, static_cast<off_t>(size_)) != 0) {
     stats_.stopped = true;

@@ -57,11 +57,12 @@ TEST(CanSinkStatus, BusOffAndTransmitDropsReachTheStatusFrame) {
     write_error_frame(sv[1], CAN_ERR_RESTARTED);
     sink.publish_status(healthy, 0);  // 2: back on the bus
     // Fill the queue: measurements go out until the write fails with EAGAIN (counted as dropped).
-    FrameWork work;
-    work.measurement.status = RutStatus::NoRut;
+    PublishedFrame frame;
+    frame.measurement.status = RutStatus::NoRut;
+    frame.health = healthy;
     int published = 0;
     while (bus.stats().dropped == 0 && published < 1'000'000) {
-      sink.publish(work, healthy);
+      sink.publish(frame);
       ++published;
     }
     ASSERT_GT(bus.stats().dropped, 0u) << "the queue never filled";

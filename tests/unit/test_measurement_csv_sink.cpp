@@ -21,10 +21,10 @@ namespace {
 
 namespace fs = std::filesystem;
 
-FrameWork work_for(std::uint64_t seq) {
-  FrameWork w;
-  w.frame.seq = seq;
-  w.frame.t_ns = static_cast<std::int64_t>(seq) * 33'333'333;
+PublishedFrame frame_for(std::uint64_t seq) {
+  PublishedFrame w;
+  w.seq = seq;
+  w.t_ns = static_cast<std::int64_t>(seq) * 33'333'333;
   w.measurement.status = RutStatus::Ok;
   w.measurement.depth_mm = 40.0 + static_cast<double>(seq);
   w.measurement.width_mm = 300.0;
@@ -59,19 +59,19 @@ TEST(MeasurementCsvSink, PartialRowsAreCutOffAndWritingResumes) {
   const fs::path path = tmp.path() / "m.csv";
   MeasurementCsvSink sink(path.string(), "sinks.csv");
   const SensorHealth health;
-  for (std::uint64_t seq = 1; seq <= 5; ++seq) sink.publish(work_for(seq), health);
+  for (std::uint64_t seq = 1; seq <= 5; ++seq) sink.publish(frame_for(seq));
   EXPECT_FALSE(sink.failed_since_last_check());
   const auto good_size = fs::file_size(path);
   {
     // Room for 30 more bytes: the next row (about 90 bytes) gets partly written, then EFBIG.
     FileSizeLimit limit(good_size + 30);
-    sink.publish(work_for(6), health);
+    sink.publish(frame_for(6));
     EXPECT_EQ(fs::file_size(path), good_size) << "the partial row was not cut off";
-    sink.publish(work_for(7), health);
+    sink.publish(frame_for(7));
   }
   EXPECT_TRUE(sink.failed_since_last_check());
   EXPECT_FALSE(sink.failed_since_last_check()) << "reported twice for one period";
-  sink.publish(work_for(8), health);
+  sink.publish(frame_for(8));
   EXPECT_FALSE(sink.failed_since_last_check());
 
   EXPECT_EQ(sink.stats().rows_written, 6u);

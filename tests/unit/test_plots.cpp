@@ -168,6 +168,8 @@ struct Measured {
     measurer->match(work, ctx);
     measurer->extract(work, ws);
   }
+  // What the daemon hands the plot sink (cmd_run.cpp).
+  PlotContext context() const { return PlotContext{renderer->calibration(), measurer->geometry().rectification()}; }
 };
 
 TEST(PlotSink, NeverBlocksDropsWhenBehindAndWritesEveryFile) {
@@ -180,12 +182,12 @@ TEST(PlotSink, NeverBlocksDropsWhenBehindAndWritesEveryFile) {
   pc.min_interval_s = 0;
   pc.queue = 1;
   pc.series_period_s = 0;
-  PlotSink sink(pc, PlotContext::from(m.renderer->calibration(), *m.measurer));
+  PlotSink sink(pc, m.context());
   const auto t0 = std::chrono::steady_clock::now();
   for (std::uint64_t i = 0; i < 40; ++i) {
     m.work.frame.seq = i;
     m.work.frame.t_ns = static_cast<std::int64_t>(i) * 33'000'000;
-    sink.publish(m.work, SensorHealth{});
+    sink.publish(published_frame(m.work, SensorHealth{}));
   }
   const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   // 40 publishes copy at most a handful of frames; drawing one takes far longer than all of them.
@@ -212,13 +214,13 @@ TEST(PlotSink, WriteErrorsAreCountedNotThrown) {
   pc.dir = dir.string();
   pc.min_interval_s = 0;
   pc.lossless = true;
-  PlotSink sink(pc, PlotContext::from(m.renderer->calibration(), *m.measurer));
+  PlotSink sink(pc, m.context());
   fs::remove_all(dir);  // the folder goes away under a running sink
-  sink.publish(m.work, SensorHealth{});
+  sink.publish(published_frame(m.work, SensorHealth{}));
   const PlotSinkStats s = sink.finish();
   EXPECT_EQ(s.errors, 4u);  // three frame plots and the series
   EXPECT_NE(s.last_error.find(dir.string()), std::string::npos) << s.last_error;
-  EXPECT_THROW(PlotSink(pc, PlotContext::from(m.renderer->calibration(), *m.measurer)), std::invalid_argument);
+  EXPECT_THROW(PlotSink(pc, m.context()), std::invalid_argument);
 }
 
 }  // namespace

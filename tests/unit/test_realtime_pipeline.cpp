@@ -208,9 +208,9 @@ class FakeSink final : public MeasurementSink {
     seqs.reserve(1 << 16);
     calibration_flags.reserve(1 << 16);
   }
-  void publish(const FrameWork& w, const SensorHealth&) override {
-    if (seqs.size() < seqs.capacity()) seqs.push_back(w.frame.seq);
-    if (w.measurement.status == RutStatus::Ok && w.measurement.depth_mm != static_cast<double>(w.frame.seq))
+  void publish(const PublishedFrame& f) override {
+    if (seqs.size() < seqs.capacity()) seqs.push_back(f.seq);
+    if (f.measurement.status == RutStatus::Ok && f.measurement.depth_mm != static_cast<double>(f.seq))
       mismatches.fetch_add(1);
     published.fetch_add(1);
   }

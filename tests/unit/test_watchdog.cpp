@@ -236,7 +236,7 @@ TEST(Supervisor, StaleOnlyKeepsThePingsAndReportsNoOutput) {
 // Records the health of every status message.
 class StatusRecorder final : public MeasurementSink {
  public:
-  void publish(const FrameWork&, const SensorHealth&) override { ++published; }
+  void publish(const PublishedFrame&) override { ++published; }
   void publish_status(const SensorHealth& h, std::int64_t) override { last = h; }
   int published = 0;
   SensorHealth last;
@@ -256,8 +256,9 @@ TEST(NoOutputStatusSink, StatusFrameSaysNoMeasurementOnceOutputStops) {
   sink.publish_status(ok, t0 + 300 * kMs);
   EXPECT_EQ(next.last.last_status, RutStatus::NoMeasurement) << "nothing published for 300 ms";
   EXPECT_TRUE(next.last.stale_frames) << "the pipeline's flags pass through";
-  FrameWork work;
-  sink.publish(work, ok);
+  PublishedFrame frame;
+  frame.health = ok;
+  sink.publish(frame);
   EXPECT_EQ(next.published, 1);
   sink.publish_status(ok, monotonic_now_ns());
   EXPECT_EQ(next.last.last_status, RutStatus::Ok) << "published again";

@@ -12,10 +12,10 @@ namespace rutd {
 // The latest published figures, for systemd's STATUS= line and the start-up READY=1.
 class LatestMeasurementSink final : public MeasurementSink {
  public:
-  void publish(const FrameWork& work, const SensorHealth&) override {
-    depth_mm_.store(work.measurement.depth_mm, std::memory_order_relaxed);
-    status_.store(static_cast<std::uint8_t>(work.measurement.status), std::memory_order_relaxed);
-    if (work.measurement.status == RutStatus::Ok) good_.fetch_add(1, std::memory_order_relaxed);
+  void publish(const PublishedFrame& frame) override {
+    depth_mm_.store(frame.measurement.depth_mm, std::memory_order_relaxed);
+    status_.store(static_cast<std::uint8_t>(frame.measurement.status), std::memory_order_relaxed);
+    if (frame.measurement.status == RutStatus::Ok) good_.fetch_add(1, std::memory_order_relaxed);
   }
   void publish_status(const SensorHealth&, std::int64_t) override {}
   double depth_mm() const { return depth_mm_.load(std::memory_order_relaxed); }

@@ -18,9 +18,9 @@ class NoOutputStatusSink final : public MeasurementSink {
   // `next` must outlive this sink.
   NoOutputStatusSink(MeasurementSink& next, std::chrono::milliseconds after)
       : next_(next), after_ns_(std::chrono::nanoseconds(after).count()) {}
-  void publish(const FrameWork& work, const SensorHealth& health) override {
+  void publish(const PublishedFrame& frame) override {
     published_ns_ = monotonic_now_ns();
-    next_.publish(work, health);
+    next_.publish(frame);
   }
   void publish_status(const SensorHealth& health, std::int64_t t_ns) override {
     if (published_ns_ < 0) published_ns_ = t_ns;  // counts from the first status, not from boot

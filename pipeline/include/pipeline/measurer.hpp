@@ -13,14 +13,15 @@
 
 #include <opencv2/core.hpp>
 
+#include "core/rut_measurement.hpp"
 #include "core/stereo_calibration.hpp"
 #include "core/stereo_frame.hpp"
 #include "pipeline/dic_refine.hpp"
 #include "pipeline/disparity.hpp"
 #include "pipeline/frame_checks.hpp"
+#include "pipeline/measurement_sink.hpp"
 #include "pipeline/stereo_geometry.hpp"
 #include "rut/extract.hpp"
-#include "core/rut_measurement.hpp"
 
 namespace rutd {
 
@@ -86,13 +87,22 @@ struct FrameWork {
   StereoFrame frame;
   cv::Mat left_strip, right_strip;  // CV_8UC1 rectified strips, rows of StereoGeometry::roi()
   bool strips_ready = false;        // false: rectify() left the strips to the match stage's engine
-  cv::Mat disparity;                // CV_32FC1 px, NaN invalid
-  cv::Mat xyz;                      // CV_32FC3 mm, left rectified camera frame, NaN invalid
+  // Set by rectify(): the rectified row of the strips' first row, and the rows measured within them.
+  int strip_row0 = 0, measured_row0 = 0, measured_rows = 0;
+  cv::Mat disparity;  // CV_32FC1 px, NaN invalid
+  cv::Mat xyz;        // CV_32FC3 mm, left rectified camera frame, NaN invalid
   CrossSection section;
+  RutGeometry geometry;   // where extract() found the rut on `section` (a copy: allocates nothing)
+  bool measured = false;  // extract() ran on this frame; false after rectify() refused it
   RutMeasurement measurement;
   MeasurementDiagnostics diag;
   FrameCheckScratch checks;
 };
+
+// What the sinks see of a frame (pipeline/measurement_sink.hpp): its figures and `health`, and, once
+// measured, pointers to its images, strips, disparity, cross-section and rut geometry (valid while `work`
+// is unchanged).
+PublishedFrame published_frame(const FrameWork& work, const SensorHealth& health);
 
 // What the match stage needs of its own: one per thread that runs match().
 struct MatchContext {

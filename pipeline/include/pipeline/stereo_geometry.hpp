@@ -42,6 +42,8 @@ class StereoGeometry {
   const cv::Matx33d& R2() const { return R2_; }        // right camera frame -> right rectified frame
   const cv::Matx34d& P1() const { return P1_; }        // left rectified projection (full image rows)
   const cv::Matx34d& P2() const { return P2_; }        // right rectified projection (full image rows)
+  // The above as plain data, for the sinks (core/stereo_calibration.hpp).
+  StereoRectification rectification() const { return {rectified_size_, R1_, R2_, P1_, P2_, Q_}; }
 
   // Disparity (px) of a point at distance z_mm (> 0) along the rectified optical axis, and back.
   double disparity_at(double z_mm) const;

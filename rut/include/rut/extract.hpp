@@ -10,6 +10,7 @@
 
 #include <opencv2/core.hpp>
 
+#include "core/cross_section.hpp"
 #include "core/rut_measurement.hpp"
 
 namespace rutd {
@@ -59,39 +60,6 @@ struct RutConfig {
   // reduce_to_cross_section: the section never spans more than this; points beyond it (reprojection
   // outliers far off to the side) are dropped, which also bounds the memory a frame can claim.
   double max_section_mm = 4000.0;
-};
-
-// Z(X) on a regular X grid, left rectified camera frame, mm.
-struct CrossSection {
-  double x0_mm = 0.0;        // X of bin 0 centre; always a multiple of dx_mm
-  double dx_mm = 1.0;        // bin width
-  std::vector<double> z_mm;  // robust mean Z of each bin; NaN where the bin had no valid point
-  std::vector<int> count;    // valid points averaged into each bin
-  // Storage reused by reduce_to_cross_section between frames; contents unspecified.
-  std::vector<float> scratch_z;
-  std::vector<int> scratch_offset;
-};
-
-// Where the last extract_rut call found the rut on the cross-section (same frame and units), for plots
-// and diagnostics. Each part is valid only when its flag is set: the line once the ground was fitted
-// (any status but TooFewPoints and NoGround), the rest once a rut opening was found (Ok, NoRut,
-// RutAtEdge after the ground fit).
-struct RutGeometry {
-  bool has_line = false;
-  double line_m = 0.0, line_c = 0.0;  // ground line Z = m X + c
-  bool has_rut = false;
-  // The deepest point: at X deepest_x_mm, depth_mm below the line measured perpendicular to it, so at
-  // Z = m X + c + depth_mm * sqrt(1 + m^2).
-  double deepest_x_mm = 0.0;
-  double left_x_mm = 0.0, right_x_mm = 0.0;  // the ground-line crossings that define width_mm
-  // X of each pile's top; NaN where the pile is reported as 0.
-  double left_pile_x_mm = 0.0, right_pile_x_mm = 0.0;
-  // Scatter of the raw bins about the local fit (robust sigma, mm): the profile's roughness; valid
-  // whenever the status is not TooFewPoints.
-  double roughness_mm = 0.0;
-  // How much deeper than the depth the rut could be where it was not seen (gaps inside the opening
-  // whose walls still descend into them; see extract_rut's coverage term), mm; valid with has_rut.
-  double unseen_depth_mm = 0.0;
 };
 
 // Scratch vectors reused between frames by extract_rut; contents unspecified, except `geometry`.

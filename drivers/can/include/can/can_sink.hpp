@@ -1,6 +1,7 @@
 #pragma once
-// The pipeline's measurement sink for CAN (the adapter between pipeline/measurement_sink.hpp and the
-// CAN transport of this folder). Called from the pipeline's publish thread only.
+// The measurement sink for CAN (the adapter between the sink interface, pipeline/measurement_sink.hpp,
+// and the CAN transport of this folder): what `rutd run` sends on the bus and logs, and what `rutd
+// replay --candump` writes. Called from the publishing thread only.
 #include <array>
 #include <cstdint>
 #include <functional>
@@ -12,6 +13,15 @@
 #include "pipeline/measurement_sink.hpp"
 
 namespace rutd {
+
+// Where the candump log's timestamps come from.
+enum class CandumpTime : std::uint8_t {
+  // The moment of sending, as candump itself stamps frames (live: the log lines up with other logs).
+  WallClock,
+  // The frame's capture time (PublishedFrame::t_ns) and the status's own time (publish_status's t_ns):
+  // replay, where the log is then what the vehicle would have sent, on the recording's clock.
+  FrameClock,
+};
 
 // CAN: every measurement and status is encoded once; each frame goes to the bus (when configured) and
 // to the candump log (when configured), so the log is exactly what the bus got. With a bus, frames the
@@ -25,18 +35,20 @@ class CanSink final : public MeasurementSink {
   // is asked on the publish thread at every status (FrameRecorder::failed, which is thread-safe): the
   // CAN library knows nothing of recordings.
   CanSink(const CanIdConfig& ids, SocketCanBus* bus, CandumpLogWriter* log, std::ostream* log_stream,
-          std::function<bool()> recording_failed = {});
-  void publish(const FrameWork& work, const SensorHealth& health) override;
+          std::function<bool()> recording_failed = {}, CandumpTime log_time = CandumpTime::WallClock);
+  void publish(const PublishedFrame& frame) override;
   void publish_status(const SensorHealth& health, std::int64_t t_ns) override;
 
  private:
-  void emit(const CanFrame& frame);
+  // frame_t_ns: the time CandumpTime::FrameClock logs.
+  void emit(const CanFrame& frame, std::int64_t frame_t_ns);
 
   CanEncoder encoder_;
   SocketCanBus* bus_;
   CandumpLogWriter* log_;
   std::ostream* log_stream_;
   std::function<bool()> recording_failed_;
+  CandumpTime log_time_;
   std::array<CanFrame, 2> frames_{};
   std::uint64_t not_sent_at_last_status_ = 0;
 };

@@ -1,6 +1,6 @@
 #pragma once
-// Plots of a run, drawn off the measurement path: the pipeline's MeasurementSink for `rutd run` (the
-// configuration's `plots` section) and what `rutd replay --plots` feeds frame by frame.
+// Plots of a run, drawn off the measurement path: the measurement sink for `rutd run` (the
+// configuration's `sinks.plots` section) and `rutd replay --plots`.
 //
 // publish() never blocks and never draws: it picks frames (every `every`-th, and always the first of
 // each status change, at most one per min_interval_s), copies what the plots need into one of `queue`
@@ -16,8 +16,8 @@
 #include <thread>
 #include <vector>
 
+#include "core/stereo_calibration.hpp"
 #include "pipeline/measurement_sink.hpp"
-#include "pipeline/measurer.hpp"
 #include "plots/plots.hpp"
 
 namespace rutd {
@@ -42,17 +42,12 @@ struct PlotSinkStats {
   std::string last_error;
 };
 
-// What the plots need to know about the measurer: calibration and rectification (to rectify the whole
-// left image for the overlay), the measured strip, and the rut settings (extract_rut is run again on the
-// plot thread to find the ground line and deepest point: a pure function, so the same answer).
+// What the plots need of the rig beyond the frames, as plain data the caller fills (the daemon, from the
+// measurer's geometry): the calibration and the rectification, to rectify the whole left image for the
+// overlay. Where the rut lies comes with each frame (PublishedFrame::geometry).
 struct PlotContext {
   StereoCalibration calibration;
-  cv::Matx33d R1;
-  cv::Matx34d P1;
-  cv::Size rectified_size;
-  StripRoi strip;
-  RutConfig rut;
-  static PlotContext from(const StereoCalibration& calibration, const StereoMeasurer& measurer);
+  StereoRectification rectification;
 };
 
 class PlotSink final : public MeasurementSink {
@@ -63,7 +58,8 @@ class PlotSink final : public MeasurementSink {
   PlotSink(const PlotSink&) = delete;
   PlotSink& operator=(const PlotSink&) = delete;
 
-  void publish(const FrameWork& work, const SensorHealth& health) override;
+  // Frames without their detail (refused before they were measured) go into the series only.
+  void publish(const PublishedFrame& frame) override;
   void publish_status(const SensorHealth&, std::int64_t) override {}
 
   // Plots what is queued, writes series.png, stops the thread. Idempotent. Returns the final figures.

@@ -10,7 +10,7 @@
 
 #include <opencv2/core.hpp>
 
-#include "rut/extract.hpp"
+#include "core/cross_section.hpp"
 #include "core/rut_measurement.hpp"
 
 namespace rutd {
@@ -39,8 +39,8 @@ inline const cv::Scalar kPlotPileBgr{0, 140, 0};         // green
 
 // The cross-section Z(X) (Z, the distance from the camera, grows downwards so the rut looks like one),
 // with the fitted ground line, both pile tops, the deepest point and a line from the ground line down to
-// it, and depth, width and status in the title. `geometry` is what extract_rut left in
-// RutWorkspace::geometry for this section and measurement. `axes` (optional) receives the mapping.
+// it, and depth, width and status in the title. `geometry` is where the rut extraction found the rut on
+// this section (PublishedFrame::geometry). `axes` (optional) receives the mapping.
 PlotResult plot_cross_section(const std::string& path, const CrossSection& section, const RutMeasurement& m,
                               const RutGeometry& geometry, const std::string& title, cv::Size page = {1000, 600},
                               PlotAxes* axes = nullptr);

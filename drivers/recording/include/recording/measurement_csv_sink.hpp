@@ -1,6 +1,7 @@
 #pragma once
-// The pipeline's measurement sink for the measurement CSV (the adapter between
-// pipeline/measurement_sink.hpp and recording/measurement_csv.hpp). Called from the publish thread only.
+// The measurement sink for the measurement CSV (the adapter between the sink interface,
+// pipeline/measurement_sink.hpp, and recording/measurement_csv.hpp): `rutd run`'s sinks.csv and `rutd
+// replay --out`. Called from the publishing thread only.
 #include <cstdint>
 #include <string>
 
@@ -33,7 +34,7 @@ class MeasurementCsvSink final : public MeasurementSink {
   MeasurementCsvSink(const MeasurementCsvSink&) = delete;
   MeasurementCsvSink& operator=(const MeasurementCsvSink&) = delete;
 
-  void publish(const FrameWork& work, const SensorHealth&) override;
+  void publish(const PublishedFrame& frame) override;
   void publish_status(const SensorHealth&, std::int64_t) override {}
 
   // True when a row was lost since the previous call (publish thread only: CanSink asks it per status).
