@@ -5,7 +5,7 @@
 #include <atomic>
 #include <cstdint>
 
-#include "pipeline/measurement_sink.hpp"
+#include "core/measurement_sink.hpp"
 
 namespace rutd {
 

@@ -9,7 +9,7 @@
 #include <cstdint>
 
 #include "core/monotonic_clock.hpp"
-#include "pipeline/measurement_sink.hpp"
+#include "core/measurement_sink.hpp"
 
 namespace rutd {
 

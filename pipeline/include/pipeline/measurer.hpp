@@ -19,7 +19,7 @@
 #include "pipeline/dic_refine.hpp"
 #include "pipeline/disparity.hpp"
 #include "pipeline/frame_checks.hpp"
-#include "pipeline/measurement_sink.hpp"
+#include "core/measurement_sink.hpp"
 #include "pipeline/stereo_geometry.hpp"
 #include "rut/extract.hpp"
 
@@ -99,7 +99,7 @@ struct FrameWork {
   FrameCheckScratch checks;
 };
 
-// What the sinks see of a frame (pipeline/measurement_sink.hpp): its figures and `health`, and, once
+// What the sinks see of a frame (core/measurement_sink.hpp): its figures and `health`, and, once
 // measured, pointers to its images, strips, disparity, cross-section and rut geometry (valid while `work`
 // is unchanged).
 PublishedFrame published_frame(const FrameWork& work, const SensorHealth& health);

@@ -28,7 +28,7 @@
 #include "core/monotonic_clock.hpp"
 #include "core/sensor_health.hpp"
 #include "pipeline/latency_stats.hpp"
-#include "pipeline/measurement_sink.hpp"
+#include "core/measurement_sink.hpp"
 #include "pipeline/measurer.hpp"
 
 namespace rutd {

@@ -1,5 +1,5 @@
 #pragma once
-// The measurement sink for CAN (the adapter between the sink interface, pipeline/measurement_sink.hpp,
+// The measurement sink for CAN (the adapter between the sink interface, core/measurement_sink.hpp,
 // and the CAN transport of this folder): what `rutd run` sends on the bus and logs, and what `rutd
 // replay --candump` writes. Called from the publishing thread only.
 #include <array>
@@ -10,7 +10,7 @@
 #include "can/can_encoder.hpp"
 #include "can/candump_log.hpp"
 #include "can/socketcan_bus.hpp"
-#include "pipeline/measurement_sink.hpp"
+#include "core/measurement_sink.hpp"
 
 namespace rutd {
 

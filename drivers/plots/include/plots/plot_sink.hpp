@@ -17,7 +17,7 @@
 #include <vector>
 
 #include "core/stereo_calibration.hpp"
-#include "pipeline/measurement_sink.hpp"
+#include "core/measurement_sink.hpp"
 #include "plots/plots.hpp"
 
 namespace rutd {

@@ -1,12 +1,12 @@
 #pragma once
 // The measurement sink for the measurement CSV (the adapter between the sink interface,
-// pipeline/measurement_sink.hpp, and recording/measurement_csv.hpp): `rutd run`'s sinks.csv and `rutd
+// core/measurement_sink.hpp, and recording/measurement_csv.hpp): `rutd run`'s sinks.csv and `rutd
 // replay --out`. Called from the publishing thread only.
 #include <cstdint>
 #include <string>
 
 #include "core/io_faults.hpp"
-#include "pipeline/measurement_sink.hpp"
+#include "core/measurement_sink.hpp"
 
 namespace rutd {
 
