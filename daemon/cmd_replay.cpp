@@ -1,26 +1,30 @@
-// rutd replay DIR: measures every pair of a recording, as fast as it can, and writes one CSV line per
-// pair (and the CAN frames that would have been sent, in candump format). Output is flushed per line so
-// a failure part-way keeps everything measured before it; a pair that cannot be read is reported and
-// skipped, and the command then exits 1. With --plots, PNG plots of chosen pairs and of the whole run are
-// written by the plot sink's thread (losslessly: replay waits for it rather than drop a plot).
-#include <chrono>
+// rutd replay DIR: measures every pair of a recording, as fast as it can, and hands each measurement to
+// the same sink classes as `rutd run`: the measurement CSV (MeasurementCsvSink, one write per row), the CAN
+// frames in candump format (CanSink, stamped on the recording's clock, with the status frames the vehicle
+// would have sent every status period: ReplayStatus), and plots (PlotSink, losslessly: replay waits for
+// its thread rather than drop a plot). A pair that cannot be read is reported and skipped, and the
+// command then exits 1; an output that cannot be written stops it at once (exit 1), keeping every row
+// written before.
+#include <csignal>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
-#include <map>
 #include <memory>
 
 #include <spdlog/spdlog.h>
 
-#include "can/can_encoder.hpp"
+#include "can/can_sink.hpp"
 #include "can/candump_log.hpp"
 #include "core/input_error.hpp"
 #include "daemon/commands.hpp"
 #include "daemon/measure_options.hpp"
+#include "daemon/no_output_status_sink.hpp"
 #include "daemon/progress.hpp"
+#include "daemon/replay_status.hpp"
 #include "daemon/run_summary.hpp"
+#include "pipeline/realtime_pipeline.hpp"
 #include "plots/plot_sink.hpp"
-#include "recording/measurement_csv.hpp"
+#include "recording/measurement_csv_sink.hpp"
 #include "recording/recording.hpp"
 
 namespace rutd {
@@ -52,52 +56,92 @@ std::ostream& open_output(const std::string& path, std::ofstream& file, const ch
   return file;
 }
 
+// The CAN side of a replay: CanSink writing the candump log on the recording's clock, behind the same
+// NO_MEASUREMENT rule as `rutd run` (NoOutputStatusSink), counted on that clock too.
+struct CandumpOutput {
+  CandumpOutput(const std::string& path, const std::string& interface, std::chrono::milliseconds no_output_after)
+      : stream(open_output(path, file, "--candump")),
+        writer(stream, interface),
+        can(CanIdConfig{}, nullptr, &writer, &stream, {}, CandumpTime::FrameClock),
+        sink(can, no_output_after, NoOutputStatusSink::Clock::Frames) {}
+  std::ofstream file;
+  std::ostream& stream;
+  CandumpLogWriter writer;
+  CanSink can;
+  NoOutputStatusSink sink;
+};
+
+std::unique_ptr<PlotSink> make_plot_sink(const ReplayOptions& o, const StereoCalibration& calibration,
+                                         const StereoMeasurer& measurer) {
+  std::error_code ec;
+  std::filesystem::create_directories(o.plots, ec);
+  if (ec) throw InputError(o.plots, "--plots", "cannot create the folder: " + ec.message());
+  PlotConfig pc;
+  pc.dir = o.plots;
+  pc.every = o.plot_every;
+  pc.min_interval_s = 0;
+  pc.series_period_s = 0;
+  pc.lossless = true;
+  try {
+    return std::make_unique<PlotSink>(pc, PlotContext{calibration, measurer.geometry().rectification()});
+  } catch (const std::invalid_argument& e) {
+    throw InputError(o.plots, "--plots", e.what());
+  }
+}
+
 int run_replay(const ReplayOptions& o) {
+  // A file-size limit (RLIMIT_FSIZE) fails the write (EFBIG), which stops the replay with the rows so far
+  // kept, instead of killing it.
+  std::signal(SIGXFSZ, SIG_IGN);
   ReplaySource reader(o.dir);  // throws InputError for a bad folder, calibration or header
   const MeasurerConfig config = resolve_measure_options(o.measure, reader.calibration().image_size);
   StereoMeasurer measurer(reader.calibration(), config);
 
-  std::ofstream csv_file, can_file;
-  MeasurementCsvWriter csv(open_output(o.out, csv_file, "--out"), /*flush_each_line=*/true);
-  std::unique_ptr<CandumpLogWriter> candump;
-  CanEncoder encoder;
-  if (!o.candump.empty())
-    candump = std::make_unique<CandumpLogWriter>(open_output(o.candump, can_file, "--candump"), o.can_interface);
-
+  // The sinks of `rutd run`, with its status period and no-output rule (PipelineConfig's defaults).
+  const PipelineConfig live;
+  MeasurementCsvSink csv(o.out.empty() ? "-" : o.out, "--out");
+  std::unique_ptr<CandumpOutput> candump;
+  if (!o.candump.empty()) candump = std::make_unique<CandumpOutput>(o.candump, o.can_interface, live.no_frame_timeout);
   std::unique_ptr<PlotSink> plots;
-  if (!o.plots.empty()) {
-    std::error_code ec;
-    std::filesystem::create_directories(o.plots, ec);
-    if (ec) throw InputError(o.plots, "--plots", "cannot create the folder: " + ec.message());
-    PlotConfig pc;
-    pc.dir = o.plots;
-    pc.every = o.plot_every;
-    pc.min_interval_s = 0;
-    pc.series_period_s = 0;
-    pc.lossless = true;
-    try {
-      plots = std::make_unique<PlotSink>(pc, PlotContext{reader.calibration(), measurer.geometry().rectification()});
-    } catch (const std::invalid_argument& e) {
-      throw InputError(o.plots, "--plots", e.what());
-    }
-  }
+  if (!o.plots.empty()) plots = make_plot_sink(o, reader.calibration(), measurer);
+  std::vector<MeasurementSink*> outputs;
+  if (candump) outputs.push_back(&candump->sink);
+  outputs.push_back(&csv);
+  if (plots) outputs.push_back(plots.get());
+  SinkFanout sinks(outputs);
+  ReplayStatus status(live.status_period, live.no_frame_timeout);
 
   spdlog::info("replaying {} with engine {}{}", o.dir, to_string(config.engine), config.dic ? " + DIC" : "");
   RunSummary summary;
-  // The stages one after the other (StereoMeasurer::measure does the same), keeping the strip, the
-  // disparity and the cross-section of each pair for the plots.
+  // The stages one after the other (StereoMeasurer::measure does the same), keeping each pair's strips,
+  // disparity and cross-section for the sinks.
   FrameWork work;
   MatchContext context = measurer.make_match_context();
   RutWorkspace rut_ws;
   StereoFrame& frame = work.frame;
-  std::array<CanFrame, 2> frames{};
   std::uint64_t unreadable = 0, done = 0;
   ProgressLine progress("replay", count_pairs(o.dir));
+  // Measuring on with nowhere to put the result is pointless: stop, keeping what was written so far.
+  auto output_failed = [&]() -> bool {
+    if (csv.stats().rows_lost > 0) {
+      progress.clear();
+      spdlog::error("replay stopped at seq {}: the {} rows written before it are kept in {}", frame.seq,
+                    csv.stats().rows_written, csv.path() == "-" ? std::string("standard output") : csv.path());
+      return true;
+    }
+    if (candump && !candump->stream) {
+      progress.clear();
+      spdlog::error("{}: cannot write the candump log (disk full or output closed); replay stopped at seq {}",
+                    o.candump == "-" ? std::string("standard output") : o.candump, frame.seq);
+      return true;
+    }
+    return false;
+  };
   for (;;) {
     progress.update(done++);
-    const SourceStatus status = reader.next(frame);
-    if (status == SourceStatus::EndOfStream) break;
-    if (status != SourceStatus::Ok) {
+    const SourceStatus read = reader.next(frame);
+    if (read == SourceStatus::EndOfStream) break;
+    if (read != SourceStatus::Ok) {
       // One bad pair (a corrupt image, a malformed line) must not cost the rest of a long recording:
       // report it, go on with the next line, and fail the command at the end.
       progress.clear();
@@ -105,27 +149,20 @@ int run_replay(const ReplayOptions& o) {
       ++unreadable;
       continue;
     }
-    if (measurer.rectify(work)) {
+    status.advance(frame.t_ns, sinks);
+    const bool fitted = measurer.rectify(work);
+    if (fitted) {
       measurer.match(work, context);
       measurer.extract(work, rut_ws);
     }
-    const RutMeasurement& m = work.measurement;
-    summary.add(m, work.diag);
-    if (plots) plots->publish(published_frame(work, SensorHealth{}));
-    if (!csv.write(frame.seq, frame.t_ns, m)) {
-      // Measuring on with nowhere to put the result is pointless: stop, keeping the rows written so far.
-      progress.clear();
-      spdlog::error("{}: cannot write the measurement of seq {} (disk full or output closed); {} rows written",
-                    o.out.empty() ? std::string("standard output") : o.out, frame.seq, csv.rows_written());
-      return 1;
-    }
-    if (candump) {
-      const int n = encoder.encode_measurement(m, frames);
-      for (int i = 0; i < n; ++i) candump->write(frames[static_cast<std::size_t>(i)], frame.t_ns);
-      candump->write(encoder.encode_conditions(m), frame.t_ns);
-    }
+    summary.add(work.measurement, work.diag);
+    status.add(frame.t_ns, fitted, work.measurement.status);
+    sinks.publish(published_frame(work, status.health()));
+    if (output_failed()) return 1;
   }
+  status.finish(sinks);
   progress.clear();
+  if (output_failed()) return 1;
   if (plots) {
     const PlotSinkStats ps = plots->finish();
     spdlog::info("plots: {} files written to {} ({} pairs plotted)", ps.files_written, o.plots, ps.frames_plotted);
@@ -151,7 +188,9 @@ void add_replay_command(CLI::App& app, int& exit_code) {
   CLI::App* cmd = app.add_subcommand("replay", "Measure every stereo pair of a recording folder");
   cmd->add_option("dir", options->dir, "Recording folder (calibration.yaml, frames.csv, left/, right/)")->required();
   cmd->add_option("--out", options->out, "Measurement CSV file (default: standard output)");
-  cmd->add_option("--candump", options->candump, "Also write the CAN frames that would be sent, candump -L format");
+  cmd->add_option("--candump", options->candump,
+                  "Also write the CAN frames the vehicle would have been sent (measurements, and status frames "
+                  "every 100 ms of recording time), candump -L format, stamped on the recording's clock");
   cmd->add_option("--can-interface", options->can_interface, "Interface name written in the candump log")
       ->capture_default_str();
   cmd->add_option("--plots", options->plots,

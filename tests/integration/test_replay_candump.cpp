@@ -2,8 +2,11 @@
 // synthetic recording writes the measurement CSV and the candump log; canmatrix decodes the log with
 // config/rutd.dbc (tests/can/decode_candump.py, which also checks every CRC and counter). Every decoded
 // value must equal the CSV within the signal's resolution, and the depth the renderer's truth within the
-// measurement tolerance.
+// measurement tolerance. The status frames are those the vehicle would have sent during the recording:
+// every 100 ms of the recording's clock, saying NoCamera and NO_MEASUREMENT through a gap in it.
 #include <cmath>
+#include <cstdint>
+#include <cstdio>
 #include <fstream>
 #include <map>
 #include <sstream>
@@ -12,6 +15,7 @@
 
 #include <gtest/gtest.h>
 
+#include "decoded_candump.hpp"
 #include "recording/measurement_csv.hpp"
 #include "synthetic/truth_csv.hpp"
 #include "test_support.hpp"
@@ -72,6 +76,102 @@ TEST(ReplayCandump, DecodedFramesEqualTheCsvAndTheTruth) {
     std::printf("frame %zu: CAN depth %.1f mm, CSV %.3f mm, truth %.3f mm\n", i, m1.at("RutDepth")[i], m.depth_mm,
                 truth[i].depth_mm);
   }
+}
+
+// The pairs' times in frames.csv (t_ns, the second field), in order.
+std::vector<std::int64_t> pair_times(const std::string& rec) {
+  std::vector<std::int64_t> t;
+  std::ifstream in(rec + "/frames.csv");
+  std::string line;
+  std::getline(in, line);  // header
+  while (std::getline(in, line)) t.push_back(std::stoll(line.substr(line.find(',') + 1)));
+  return t;
+}
+
+constexpr std::int64_t kPeriodNs = 100'000'000;  // the status period of `rutd run`'s default
+
+// 40 pairs at 30 fps (1.3 s): a status frame every 100 ms of the recording from its first pair, and one
+// after the last pair; healthy, the last measurement's status, the recording's frame rate once a second
+// of it has passed; every frame on the recording's clock.
+TEST(ReplayCandump, StatusFramesEveryPeriodOfTheRecordingClock) {
+  if (!test::have_canmatrix()) GTEST_SKIP() << "needs /usr/bin/python3 with canmatrix (python3-canmatrix)";
+  const test::TempDir tmp;
+  const std::string rec = (tmp.path() / "rec").string(), log = (tmp.path() / "can.log").string();
+  ASSERT_EQ(test::run_rutd("synth " + rec + " --frames 40 --size 320x240 --seed 8"), 0);
+  ASSERT_EQ(test::run_rutd("replay " + rec + " --out " + (tmp.path() / "m.csv").string() + " --candump " + log), 0);
+  bool ok = false;
+  const auto all = test::decode_candump(log, ok);
+  ASSERT_TRUE(ok) << "decoder reported CRC, counter or format errors";
+  const std::vector<std::int64_t> t = pair_times(rec);
+  ASSERT_EQ(t.size(), 40u);
+  const auto m1 = test::frames_of(all, "RutMeasurement1");
+  ASSERT_EQ(m1.size(), t.size());
+  for (std::size_t i = 0; i < t.size(); ++i) EXPECT_EQ(m1[i].t_ns, t[i] / 1000 * 1000) << "pair " << i;
+  const auto status = test::frames_of(all, "RutSensorStatus");
+  // Periodic statuses at t0 + k * 100 ms before the last pair, then the last one at its time.
+  const std::int64_t periodic = (t.back() - t.front() - 1) / kPeriodNs;
+  ASSERT_EQ(static_cast<std::int64_t>(status.size()), periodic + 1);
+  for (std::size_t k = 0; k < status.size(); ++k) {
+    const std::int64_t want = k + 1 < status.size() ? t.front() + (k + 1) * kPeriodNs : t.back();
+    EXPECT_EQ(status[k].t_ns, want / 1000 * 1000) << "status " << k;
+    EXPECT_EQ(status[k].named.at("RutS_LastStatus"), "OK") << "status " << k;
+    EXPECT_EQ(status[k].phys.at("NoCamera"), 0) << "status " << k;
+    EXPECT_EQ(status[k].phys.at("CalibrationInvalid"), 0) << "status " << k;
+    EXPECT_EQ(status[k].phys.at("FrameDrops"), 0) << "status " << k;
+    const double seconds = (status[k].t_ns - t.front()) * 1e-9;
+    if (seconds >= 1.0) EXPECT_NEAR(status[k].phys.at("FrameRate"), 30.0, 0.5) << "status " << k;
+    else EXPECT_EQ(status[k].phys.at("FrameRate"), 0) << "status " << k << ": no full second yet";
+  }
+  std::printf("%zu pairs over %.2f s, %zu status frames\n", t.size(), (t.back() - t.front()) * 1e-9, status.size());
+}
+
+// A recording with a 2.5 s gap (the cameras lost on the drive): the status frames in the gap raise
+// NoCamera once no pair came for 1 s, and say NO_MEASUREMENT as the latest status, as `rutd run` does;
+// both clear with the first pair after the gap.
+TEST(ReplayCandump, GapInTheRecordingIsReportedAsTheVehicleWouldHaveSeenIt) {
+  if (!test::have_canmatrix()) GTEST_SKIP() << "needs /usr/bin/python3 with canmatrix (python3-canmatrix)";
+  const test::TempDir tmp;
+  const std::string rec = (tmp.path() / "rec").string(), log = (tmp.path() / "can.log").string();
+  ASSERT_EQ(test::run_rutd("synth " + rec + " --frames 24 --size 320x240 --seed 9"), 0);
+  // Pairs 12.. moved 2.5 s later.
+  constexpr std::int64_t kGapNs = 2'500'000'000;
+  {
+    std::ifstream in(rec + "/frames.csv");
+    std::string text, line;
+    std::getline(in, line);
+    text = line + "\n";
+    for (int i = 0; std::getline(in, line); ++i) {
+      const auto a = line.find(','), b = line.find(',', a + 1);
+      const std::int64_t t = std::stoll(line.substr(a + 1, b - a - 1)) + (i >= 12 ? kGapNs : 0);
+      text += line.substr(0, a + 1) + std::to_string(t) + line.substr(b) + "\n";
+    }
+    std::ofstream(rec + "/frames.csv") << text;
+  }
+  ASSERT_EQ(test::run_rutd("replay " + rec + " --out " + (tmp.path() / "m.csv").string() + " --candump " + log), 0);
+  bool ok = false;
+  const auto all = test::decode_candump(log, ok);
+  ASSERT_TRUE(ok) << "decoder reported CRC, counter or format errors";
+  const std::vector<std::int64_t> t = pair_times(rec);
+  ASSERT_EQ(t.size(), 24u);
+  const std::int64_t before = t[11], after = t[12];  // the last pair before the gap, the first after it
+  int in_gap = 0, lost = 0;
+  for (const auto& s : test::frames_of(all, "RutSensorStatus")) {
+    const bool no_camera = s.phys.at("NoCamera") == 1;
+    const std::string& last = s.named.at("RutS_LastStatus");
+    if (s.t_ns <= before + 1'000'000'000 || s.t_ns >= after) {
+      EXPECT_FALSE(no_camera) << "status at " << s.t_ns;
+      EXPECT_EQ(last, "OK") << "status at " << s.t_ns;
+      continue;
+    }
+    ++in_gap;
+    lost += no_camera;
+    EXPECT_TRUE(no_camera) << "status at " << s.t_ns << ", " << (s.t_ns - before) / 1'000'000 << " ms after a pair";
+    EXPECT_EQ(last, "NO_MEASUREMENT") << "status at " << s.t_ns;
+  }
+  // From 1 s after the last pair to the next pair: (2.5 + 0.033 - 1) s of statuses every 100 ms.
+  EXPECT_GE(in_gap, 14);
+  EXPECT_LE(in_gap, 16);
+  std::printf("%d status frames in the gap beyond 1 s, %d of them NoCamera and NO_MEASUREMENT\n", in_gap, lost);
 }
 
 }  // namespace

@@ -1,5 +1,7 @@
 // Bad input through the rutd program, as a user meets it: one clear error naming the file and the
 // field or line, and nothing already measured lost.
+#include <cstdint>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <string>
@@ -67,6 +69,29 @@ TEST_F(ReplayErrors, CutOffLastLineReplaysUpToTheLastCompletePair) {
   EXPECT_EQ(replay(err), 0) << err;
   EXPECT_NE(err.find("cut off"), std::string::npos) << err;
   EXPECT_EQ(read_measurement_csv(csv()).rows.size(), 3u);
+}
+
+// A disk that fills up under `replay --out` (a 2 KiB file-size limit: writes fail with EFBIG): the replay
+// stops at the first row it cannot write, with exit 1 and one error naming the file, and the CSV holds
+// every row before it, whole (the partial row is cut off again).
+TEST_F(ReplayErrors, FullDiskStopsTheReplayKeepingTheRowsWritten) {
+  const std::string rec = (tmp_.path() / "long").string();
+  ASSERT_EQ(test::run_rutd("synth " + rec + " --frames 30 --size 320x240 --seed 4"), 0);
+  const std::string err = (tmp_.path() / "err.txt").string();
+  const int status = test::run_shell("bash -c 'ulimit -f 2 && exec " + test::quoted(RUTD_BINARY) + " replay " + rec +
+                                     " --out " + csv() + "' 2>" + test::quoted(err));
+  const std::string text = test::read_text(err);
+  EXPECT_EQ(status, 1) << text;
+  EXPECT_NE(text.find(csv() + ": cannot write the row of seq"), std::string::npos) << text;
+  EXPECT_NE(text.find("File too large"), std::string::npos) << text;
+  const MeasurementCsv read = read_measurement_csv(csv());
+  EXPECT_FALSE(read.truncated_tail) << "a partial row was left";
+  ASSERT_GT(read.rows.size(), 5u);
+  ASSERT_LT(read.rows.size(), 30u);
+  for (std::size_t i = 0; i < read.rows.size(); ++i) EXPECT_EQ(read.rows[i].seq, i);
+  EXPECT_LE(fs::file_size(csv()), 2048u);
+  std::printf("replay stopped at the 2 KiB limit with %zu whole rows (%ju bytes)\n", read.rows.size(),
+              static_cast<std::uintmax_t>(fs::file_size(csv())));
 }
 
 }  // namespace

@@ -4,22 +4,24 @@
 // it would still read OK. This sink sits in front of the CAN sink and, once no measurement has been
 // published for `after`, sends NO_MEASUREMENT as the latest status (beside the pipeline's own NoCamera or
 // StaleFrames flag saying why) until a measurement is published again. Publish thread only, like every
-// sink.
+// sink. Time counts on CLOCK_MONOTONIC live; in replay, on the recording's clock (the frames' t_ns and the
+// statuses' own times, ReplayStatus).
 #include <chrono>
 #include <cstdint>
 
-#include "core/monotonic_clock.hpp"
 #include "core/measurement_sink.hpp"
+#include "core/monotonic_clock.hpp"
 
 namespace rutd {
 
 class NoOutputStatusSink final : public MeasurementSink {
  public:
+  enum class Clock { Monotonic, Frames };
   // `next` must outlive this sink.
-  NoOutputStatusSink(MeasurementSink& next, std::chrono::milliseconds after)
-      : next_(next), after_ns_(std::chrono::nanoseconds(after).count()) {}
+  NoOutputStatusSink(MeasurementSink& next, std::chrono::milliseconds after, Clock clock = Clock::Monotonic)
+      : next_(next), after_ns_(std::chrono::nanoseconds(after).count()), clock_(clock) {}
   void publish(const PublishedFrame& frame) override {
-    published_ns_ = monotonic_now_ns();
+    published_ns_ = clock_ == Clock::Frames ? frame.t_ns : monotonic_now_ns();
     next_.publish(frame);
   }
   void publish_status(const SensorHealth& health, std::int64_t t_ns) override {
@@ -32,6 +34,7 @@ class NoOutputStatusSink final : public MeasurementSink {
  private:
   MeasurementSink& next_;
   std::int64_t after_ns_;
+  Clock clock_;
   std::int64_t published_ns_ = -1;
 };
 
