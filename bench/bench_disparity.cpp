@@ -4,9 +4,9 @@
 #include <benchmark/benchmark.h>
 #include <opencv2/imgproc.hpp>
 
-#include "pipeline/dic_refine.hpp"
-#include "pipeline/disparity.hpp"
-#include "pipeline/stereo_geometry.hpp"
+#include "refinement/dic_refine.hpp"
+#include "engines/disparity_engine.hpp"
+#include "geometry/stereo_geometry.hpp"
 #include "synthetic/synthetic_renderer.hpp"
 
 namespace {

@@ -19,8 +19,8 @@
 #include "core/input_error.hpp"
 #include "daemon/bench_tables.hpp"
 #include "daemon/progress.hpp"
-#include "pipeline/dic_refine.hpp"
-#include "pipeline/disparity.hpp"
+#include "refinement/dic_refine.hpp"
+#include "engines/disparity_engine.hpp"
 
 namespace rutd {
 namespace {

@@ -26,7 +26,7 @@
 
 #include "daemon/dimensions.hpp"
 #include "daemon/progress.hpp"
-#include "pipeline/measurer.hpp"
+#include "measurement/measurer.hpp"
 #include "synthetic/synthetic_renderer.hpp"
 
 namespace rutd {

@@ -22,7 +22,7 @@
 #include "daemon/bench_tables.hpp"
 #include "daemon/commands.hpp"
 #include "daemon/dimensions.hpp"
-#include "pipeline/realtime_pipeline.hpp"
+#include "runtime/realtime_pipeline.hpp"
 #include "synthetic/cycling_source.hpp"
 #include "synthetic/synthetic_renderer.hpp"
 

@@ -8,7 +8,7 @@
 
 #include "daemon/commands.hpp"
 #include "daemon/dimensions.hpp"
-#include "pipeline/stereo_calibrate.hpp"
+#include "geometry/stereo_calibrate.hpp"
 #include "recording/calibration_file.hpp"
 
 namespace rutd {

@@ -22,7 +22,7 @@
 #include "daemon/progress.hpp"
 #include "daemon/replay_status.hpp"
 #include "daemon/run_summary.hpp"
-#include "pipeline/realtime_pipeline.hpp"
+#include "runtime/realtime_pipeline.hpp"
 #include "plots/plot_sink.hpp"
 #include "recording/measurement_csv_sink.hpp"
 #include "recording/recording.hpp"

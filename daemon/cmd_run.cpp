@@ -31,7 +31,7 @@
 #include "daemon/stalling_stages.hpp"
 #include "daemon/stop_signal.hpp"
 #include "daemon/supervisor.hpp"
-#include "pipeline/realtime_pipeline.hpp"
+#include "runtime/realtime_pipeline.hpp"
 #include "recording/frame_recorder.hpp"
 #include "recording/measurement_csv_sink.hpp"
 

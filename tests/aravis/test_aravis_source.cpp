@@ -10,7 +10,7 @@
 
 #include "aravis/fake_stereo_rig.hpp"
 #include "camera/aravis_stereo_source.hpp"
-#include "pipeline/measurer.hpp"
+#include "measurement/measurer.hpp"
 
 namespace rutd {
 namespace {

@@ -11,7 +11,7 @@
 #include <gtest/gtest.h>
 
 #include "jump_rigs.hpp"
-#include "pipeline/measurer.hpp"
+#include "measurement/measurer.hpp"
 #include "synthetic/synthetic_renderer.hpp"
 
 namespace rutd {

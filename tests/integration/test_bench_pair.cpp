@@ -13,8 +13,8 @@
 #include <gtest/gtest.h>
 #include <opencv2/imgcodecs.hpp>
 
-#include "pipeline/dic_refine.hpp"
-#include "pipeline/disparity.hpp"
+#include "refinement/dic_refine.hpp"
+#include "engines/disparity_engine.hpp"
 #include "test_support.hpp"
 
 namespace rutd {

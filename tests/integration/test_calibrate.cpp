@@ -6,7 +6,7 @@
 #include <gtest/gtest.h>
 
 #include "core/input_error.hpp"
-#include "pipeline/stereo_calibrate.hpp"
+#include "geometry/stereo_calibrate.hpp"
 #include "recording/calibration_file.hpp"
 #include "test_support.hpp"
 

@@ -22,7 +22,7 @@
 
 #include "gpu/rectify.hpp"
 #include "jump_rigs.hpp"
-#include "pipeline/measurer.hpp"
+#include "measurement/measurer.hpp"
 #include "synthetic/synthetic_renderer.hpp"
 
 namespace rutd {

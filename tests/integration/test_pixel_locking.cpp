@@ -6,7 +6,7 @@
 
 #include <gtest/gtest.h>
 
-#include "pipeline/measurer.hpp"
+#include "measurement/measurer.hpp"
 #include "synthetic/synthetic_renderer.hpp"
 
 namespace rutd {

@@ -30,7 +30,7 @@ check_folder() {  # folder allowed-prefixes...
 }
 check_folder rut rut core
 check_folder core core
-check_folder pipeline pipeline gpu core rut  # gpu: the Vulkan matcher, pipeline/gpu/
+check_folder pipeline geometry refinement engines measurement runtime gpu core rut  # gpu: the Vulkan matcher, pipeline/gpu/
 check_folder drivers/can can core rut pipeline          # pipeline: can_sink.* only, checked below
 check_folder drivers/camera camera core rut
 check_folder drivers/recording recording core rut pipeline  # pipeline: measurement_csv_sink.hpp only

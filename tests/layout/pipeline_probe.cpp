@@ -2,7 +2,7 @@
 // inspects. It measures one black frame so that the linker really pulls the pipeline's objects in.
 #include <opencv2/core.hpp>
 
-#include "pipeline/measurer.hpp"
+#include "measurement/measurer.hpp"
 
 int main() {
   rutd::StereoCalibration calibration;

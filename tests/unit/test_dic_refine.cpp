@@ -11,8 +11,8 @@
 #include <opencv2/core.hpp>
 
 #include "known_disparity.hpp"
-#include "pipeline/dic_refine.hpp"
-#include "pipeline/disparity.hpp"
+#include "refinement/dic_refine.hpp"
+#include "engines/disparity_engine.hpp"
 #include "test_support.hpp"
 
 namespace rutd {

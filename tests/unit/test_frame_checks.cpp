@@ -1,4 +1,4 @@
-// The calibration check's correlation (pipeline/frame_checks.hpp, normalized_correlation) against
+// The calibration check's correlation (measurement/frame_checks.hpp, normalized_correlation) against
 // OpenCV's own cv::matchTemplate(TM_CCOEFF_NORMED), which it replaces on the per-frame path, on random
 // textures of the sizes the check uses and of awkward ones, including flat patches.
 #include <cstdio>
@@ -7,7 +7,7 @@
 #include <gtest/gtest.h>
 #include <opencv2/imgproc.hpp>
 
-#include "pipeline/frame_checks.hpp"
+#include "measurement/frame_checks.hpp"
 
 namespace rutd {
 namespace {

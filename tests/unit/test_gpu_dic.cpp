@@ -12,8 +12,8 @@
 
 #include "gpu/dic.hpp"
 #include "known_disparity.hpp"
-#include "pipeline/dic_refine.hpp"
-#include "pipeline/disparity.hpp"
+#include "refinement/dic_refine.hpp"
+#include "engines/disparity_engine.hpp"
 
 namespace rutd {
 namespace {

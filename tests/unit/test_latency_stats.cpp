@@ -8,7 +8,7 @@
 
 #include <gtest/gtest.h>
 
-#include "pipeline/latency_stats.hpp"
+#include "runtime/latency_stats.hpp"
 
 namespace rutd {
 namespace {

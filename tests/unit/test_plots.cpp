@@ -9,7 +9,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "pipeline/measurer.hpp"
+#include "measurement/measurer.hpp"
 #include "plots/plot_sink.hpp"
 #include "plots/plots.hpp"
 #include "synthetic/synthetic_renderer.hpp"

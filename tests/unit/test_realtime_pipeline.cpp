@@ -16,7 +16,7 @@
 
 #include <gtest/gtest.h>
 
-#include "pipeline/realtime_pipeline.hpp"
+#include "runtime/realtime_pipeline.hpp"
 #include "synthetic/cycling_source.hpp"
 #include "synthetic/synthetic_renderer.hpp"
 

@@ -14,8 +14,8 @@
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "pipeline/disparity.hpp"
-#include "pipeline/stereo_geometry.hpp"
+#include "engines/disparity_engine.hpp"
+#include "geometry/stereo_geometry.hpp"
 
 namespace rutd {
 namespace {

@@ -17,7 +17,7 @@
 #include "daemon/no_output_status_sink.hpp"
 #include "daemon/service_notifier.hpp"
 #include "daemon/supervisor.hpp"
-#include "pipeline/realtime_pipeline.hpp"
+#include "runtime/realtime_pipeline.hpp"
 #include "synthetic/cycling_source.hpp"
 #include "test_support.hpp"
 

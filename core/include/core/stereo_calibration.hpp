@@ -1,6 +1,6 @@
 #pragma once
 // A calibrated stereo rig (DESIGN.md, Formats): what every frame source produces and the pipeline's
-// geometry (pipeline/stereo_geometry.hpp) is computed from; and the rectification computed from it. Reading and writing
+// geometry (geometry/stereo_geometry.hpp) is computed from; and the rectification computed from it. Reading and writing
 // the calibration file is recording/calibration_file.hpp's business.
 #include <opencv2/core.hpp>
 

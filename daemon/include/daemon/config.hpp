@@ -9,8 +9,8 @@
 
 #include "camera/aravis_config.hpp"
 #include "can/can_encoder.hpp"
-#include "pipeline/measurer.hpp"
-#include "pipeline/realtime_pipeline.hpp"
+#include "measurement/measurer.hpp"
+#include "runtime/realtime_pipeline.hpp"
 #include "plots/plot_sink.hpp"
 #include "synthetic/synthetic_renderer.hpp"
 

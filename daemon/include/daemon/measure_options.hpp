@@ -4,7 +4,7 @@
 
 #include <CLI/CLI.hpp>
 
-#include "pipeline/measurer.hpp"
+#include "measurement/measurer.hpp"
 
 namespace rutd {
 

@@ -4,7 +4,7 @@
 #include <chrono>
 #include <cstdint>
 
-#include "pipeline/measurer.hpp"
+#include "measurement/measurer.hpp"
 
 namespace rutd {
 

@@ -10,7 +10,7 @@
 #include <thread>
 
 #include "daemon/stop_signal.hpp"
-#include "pipeline/realtime_pipeline.hpp"
+#include "runtime/realtime_pipeline.hpp"
 
 namespace rutd {
 

@@ -21,7 +21,7 @@
 
 #include "daemon/latest_measurement_sink.hpp"
 #include "daemon/service_notifier.hpp"
-#include "pipeline/realtime_pipeline.hpp"
+#include "runtime/realtime_pipeline.hpp"
 
 namespace rutd {
 

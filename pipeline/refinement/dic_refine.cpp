@@ -1,4 +1,4 @@
-#include "pipeline/dic_refine.hpp"
+#include "refinement/dic_refine.hpp"
 
 #include <algorithm>
 #include <cmath>

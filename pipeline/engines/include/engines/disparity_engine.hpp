@@ -9,8 +9,8 @@
 
 #include <opencv2/core.hpp>
 
-#include "pipeline/dic_refine.hpp"
-#include "pipeline/stereo_geometry.hpp"
+#include "refinement/dic_refine.hpp"
+#include "geometry/stereo_geometry.hpp"
 
 namespace rutd {
 

@@ -1,4 +1,4 @@
-#include "pipeline/stereo_calibrate.hpp"
+#include "geometry/stereo_calibrate.hpp"
 
 #include <filesystem>
 #include <stdexcept>

@@ -3,7 +3,7 @@
 // OpenCV matcher and a 16-bit scratch disparity, reused between frames; one per thread.
 #include <opencv2/calib3d.hpp>
 
-#include "pipeline/disparity.hpp"
+#include "engines/disparity_engine.hpp"
 
 namespace rutd {
 

@@ -27,9 +27,9 @@
 #include "core/frame_source.hpp"
 #include "core/monotonic_clock.hpp"
 #include "core/sensor_health.hpp"
-#include "pipeline/latency_stats.hpp"
+#include "runtime/latency_stats.hpp"
 #include "core/measurement_sink.hpp"
-#include "pipeline/measurer.hpp"
+#include "measurement/measurer.hpp"
 
 namespace rutd {
 

@@ -1,4 +1,4 @@
-#include "pipeline/measurer.hpp"
+#include "measurement/measurer.hpp"
 
 #include <algorithm>
 #include <chrono>

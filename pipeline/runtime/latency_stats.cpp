@@ -1,4 +1,4 @@
-#include "pipeline/latency_stats.hpp"
+#include "runtime/latency_stats.hpp"
 
 #include <algorithm>
 #include <bit>

@@ -6,7 +6,7 @@
 //   match    - find the disparity band (or keep the last frame's while it fits: BandTracker), match,
 //              refine by digital image correlation
 //   extract  - reproject to millimetres, reduce to a cross-section, extract the rut, check the frame for
-//              the conditions that would make the depth wrong (pipeline/frame_checks.hpp)
+//              the conditions that would make the depth wrong (measurement/frame_checks.hpp)
 // Per-frame path: nothing here throws because of frame content; a status says what went wrong.
 #include <memory>
 #include <optional>
@@ -16,11 +16,11 @@
 #include "core/rut_measurement.hpp"
 #include "core/stereo_calibration.hpp"
 #include "core/stereo_frame.hpp"
-#include "pipeline/dic_refine.hpp"
-#include "pipeline/disparity.hpp"
-#include "pipeline/frame_checks.hpp"
+#include "refinement/dic_refine.hpp"
+#include "engines/disparity_engine.hpp"
+#include "measurement/frame_checks.hpp"
 #include "core/measurement_sink.hpp"
-#include "pipeline/stereo_geometry.hpp"
+#include "geometry/stereo_geometry.hpp"
 #include "rut/extract.hpp"
 
 namespace rutd {

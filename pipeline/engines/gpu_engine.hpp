@@ -6,7 +6,7 @@
 
 #include "gpu/dic.hpp"
 #include "gpu/sgm.hpp"
-#include "pipeline/disparity.hpp"
+#include "engines/disparity_engine.hpp"
 
 namespace rutd {
 

@@ -1,4 +1,4 @@
-#include "pipeline/realtime_pipeline.hpp"
+#include "runtime/realtime_pipeline.hpp"
 
 #include <pthread.h>
 #include <sched.h>

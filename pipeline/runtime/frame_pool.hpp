@@ -8,7 +8,7 @@
 #include <stdexcept>
 #include <string>
 
-#include "pipeline/measurer.hpp"
+#include "measurement/measurer.hpp"
 
 namespace rutd {
 

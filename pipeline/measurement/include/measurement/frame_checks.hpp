@@ -14,8 +14,8 @@
 
 #include <opencv2/core.hpp>
 
-#include "pipeline/disparity.hpp"
-#include "pipeline/stereo_geometry.hpp"
+#include "engines/disparity_engine.hpp"
+#include "geometry/stereo_geometry.hpp"
 #include "rut/extract.hpp"
 #include "core/rut_measurement.hpp"
 

@@ -1,4 +1,4 @@
-#include "pipeline/stereo_geometry.hpp"
+#include "geometry/stereo_geometry.hpp"
 
 #include <algorithm>
 #include <cmath>

@@ -1,4 +1,4 @@
-#include "pipeline/disparity.hpp"
+#include "engines/disparity_engine.hpp"
 
 #include <algorithm>
 #include <cmath>

@@ -1,5 +1,5 @@
-// Per-frame condition checks (pipeline/frame_checks.hpp).
-#include "pipeline/frame_checks.hpp"
+// Per-frame condition checks (measurement/frame_checks.hpp).
+#include "measurement/frame_checks.hpp"
 
 #include <algorithm>
 #include <array>
