@@ -4,9 +4,10 @@
 #include <benchmark/benchmark.h>
 #include <opencv2/imgproc.hpp>
 
-#include "refinement/dic_refine.hpp"
 #include "engines/disparity_engine.hpp"
+#include "engines/engine_factory.hpp"
 #include "geometry/stereo_geometry.hpp"
+#include "refinement/dic_refine.hpp"
 #include "synthetic/synthetic_renderer.hpp"
 
 namespace {

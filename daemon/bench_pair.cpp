@@ -19,8 +19,9 @@
 #include "core/input_error.hpp"
 #include "daemon/bench_tables.hpp"
 #include "daemon/progress.hpp"
-#include "refinement/dic_refine.hpp"
 #include "engines/disparity_engine.hpp"
+#include "engines/engine_factory.hpp"
+#include "refinement/dic_refine.hpp"
 
 namespace rutd {
 namespace {

@@ -22,10 +22,10 @@
 #include "daemon/progress.hpp"
 #include "daemon/replay_status.hpp"
 #include "daemon/run_summary.hpp"
-#include "runtime/realtime_pipeline.hpp"
 #include "plots/plot_sink.hpp"
 #include "recording/measurement_csv_sink.hpp"
 #include "recording/recording.hpp"
+#include "runtime/realtime_pipeline.hpp"
 
 namespace rutd {
 namespace {

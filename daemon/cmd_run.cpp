@@ -31,9 +31,9 @@
 #include "daemon/stalling_stages.hpp"
 #include "daemon/stop_signal.hpp"
 #include "daemon/supervisor.hpp"
-#include "runtime/realtime_pipeline.hpp"
 #include "recording/frame_recorder.hpp"
 #include "recording/measurement_csv_sink.hpp"
+#include "runtime/realtime_pipeline.hpp"
 
 namespace rutd {
 namespace {

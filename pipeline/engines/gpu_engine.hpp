@@ -4,9 +4,9 @@
 // matching lives in gpu/ (OpenCV-free).
 #include <memory>
 
+#include "engines/disparity_engine.hpp"
 #include "gpu/dic.hpp"
 #include "gpu/sgm.hpp"
-#include "engines/disparity_engine.hpp"
 
 namespace rutd {
 

@@ -8,6 +8,8 @@
 
 #include <opencv2/imgproc.hpp>
 
+#include "engines/engine_factory.hpp"
+
 namespace rutd {
 namespace {
 

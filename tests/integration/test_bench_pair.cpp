@@ -13,8 +13,9 @@
 #include <gtest/gtest.h>
 #include <opencv2/imgcodecs.hpp>
 
-#include "refinement/dic_refine.hpp"
 #include "engines/disparity_engine.hpp"
+#include "engines/engine_factory.hpp"
+#include "refinement/dic_refine.hpp"
 #include "test_support.hpp"
 
 namespace rutd {

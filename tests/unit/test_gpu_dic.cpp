@@ -10,10 +10,11 @@
 #include <gtest/gtest.h>
 #include <opencv2/core.hpp>
 
+#include "engines/disparity_engine.hpp"
+#include "engines/engine_factory.hpp"
 #include "gpu/dic.hpp"
 #include "known_disparity.hpp"
 #include "refinement/dic_refine.hpp"
-#include "engines/disparity_engine.hpp"
 
 namespace rutd {
 namespace {

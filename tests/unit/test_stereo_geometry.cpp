@@ -16,6 +16,7 @@
 
 #include "engines/disparity_engine.hpp"
 #include "geometry/stereo_geometry.hpp"
+#include "measurement/band_estimate.hpp"
 
 namespace rutd {
 namespace {

@@ -10,8 +10,8 @@
 #include "camera/aravis_config.hpp"
 #include "can/can_encoder.hpp"
 #include "measurement/measurer.hpp"
-#include "runtime/realtime_pipeline.hpp"
 #include "plots/plot_sink.hpp"
+#include "runtime/realtime_pipeline.hpp"
 #include "synthetic/synthetic_renderer.hpp"
 
 namespace rutd {

@@ -57,8 +57,8 @@
 #include <string>
 
 #include "can/can_frame.hpp"
-#include "core/sensor_health.hpp"
 #include "core/rut_measurement.hpp"
+#include "core/sensor_health.hpp"
 
 namespace rutd {
 

@@ -16,8 +16,8 @@
 #include <thread>
 #include <vector>
 
-#include "core/stereo_calibration.hpp"
 #include "core/measurement_sink.hpp"
+#include "core/stereo_calibration.hpp"
 #include "plots/plots.hpp"
 
 namespace rutd {

@@ -1,16 +1,15 @@
 #pragma once
-// Disparity engines (DESIGN.md §3): the interface every engine (CPU here, a GPU engine later) implements,
-// the CPU factory, and the choice of the search band from the working range of distances.
-#include <memory>
+// Disparity engines (DESIGN.md §3): the interface every engine implements (OpenCV's on the CPU, census SGM
+// on the CPU or a Vulkan device), the engine kinds and their tuning. The engines themselves are private
+// to this library; engines/engine_factory.hpp makes them.
 #include <optional>
 #include <string>
 #include <string_view>
-#include <vector>
 
 #include <opencv2/core.hpp>
 
-#include "refinement/dic_refine.hpp"
 #include "geometry/stereo_geometry.hpp"
+#include "refinement/dic_refine.hpp"
 
 namespace rutd {
 
@@ -29,12 +28,6 @@ std::string_view to_string(EngineKind kind);
 struct DisparityBand {
   int min_disparity = 0;
   int num_disparities = 16;
-};
-
-// Plausible distances from the left camera to the terrain along the rectified optical axis, mm.
-struct WorkingRange {
-  double near_mm = 150.0;
-  double far_mm = 1500.0;
 };
 
 // One engine per thread; not thread-safe. Engines keep their scratch between calls.
@@ -95,88 +88,5 @@ struct EngineConfig {
   int sgm_segment = 0;     // Gpu/SgmRef: rows aggregated in segments of this many px (gpu::SgmConfig), 0 off
   std::string gpu_device;  // Gpu: "" the first GPU; a number: that Vulkan device index; else a name part
 };
-
-// Throws std::invalid_argument for parameters OpenCV would refuse (even block size, p2 <= p1, ...), and for
-// EngineKind::Gpu (not a CPU engine).
-std::unique_ptr<DisparityEngine> make_cpu_engine(EngineKind kind, const EngineConfig& params = {});
-
-// Any engine. Gpu: when the build has no Vulkan engine or no usable Vulkan device exists (or the device
-// fails later), the engine logs the reason once on stderr and computes with the SgmRef engine instead
-// (same disparities, slower). Throws std::invalid_argument for bad parameters.
-std::unique_ptr<DisparityEngine> make_engine(EngineKind kind, const EngineConfig& params = {});
-
-// Throws std::invalid_argument where make_engine would, without making the engine (no GPU device is
-// opened): a start-up check for objects that make their engine later.
-void check_engine(EngineKind kind, const EngineConfig& params = {});
-
-// The band that covers every disparity of `range` (far end rounded down, near end up), min_disparity
-// >= 0. Can be wide (hundreds of px) for a wide range; see estimate_band.
-DisparityBand band_for_range(const StereoGeometry& g, WorkingRange range);
-
-// The terrain is near a plane at an unknown distance in `range`: a coarse pass (strips downsampled
-// horizontally by a power of two so the band of `range` fits in at most 128 coarse px, and to every second
-// row; StereoSGBM 3-way) finds the disparities present at textured pixels; returns a narrow band around
-// them (2nd..98th percentile plus a margin of max(4 px, 2 coarse px, 25% of the spread)), clamped to
-// band_for_range(range). Returns band_for_range(range) when fewer than 5% of the coarse pixels get a
-// disparity. BandEstimator keeps the coarse matcher and its buffers between calls, for the per-frame path
-// (one per thread); estimate_band is the one-off form and builds them each call.
-class BandEstimator {
- public:
-  DisparityBand estimate(const cv::Mat& left_strip, const cv::Mat& right_strip, const StereoGeometry& g,
-                         WorkingRange range);
-  // The same estimate with the coarse pass on `engine`'s device from the raw pair (coarse_match: the
-  // device's census matcher instead of StereoSGBM, the strips rectified there and returned in
-  // left_strip/right_strip). std::nullopt when the engine cannot, or the range needs no coarse pass:
-  // then rectify and call estimate().
-  std::optional<DisparityBand> estimate_on_device(DisparityEngine& engine, const cv::Mat& left_raw,
-                                                  const cv::Mat& right_raw, const StereoGeometry& g, WorkingRange range,
-                                                  cv::Mat& left_strip, cv::Mat& right_strip);
-
- private:
-  struct Plan {
-    DisparityBand full;   // band_for_range
-    int scale = 1;        // columns averaged per coarse pixel
-    bool coarse = false;  // false: the full band is the answer
-    DisparityBand coarse_band;
-    cv::Size coarse_size;
-  };
-  static Plan plan(const StereoGeometry& g, WorkingRange range, cv::Size strip);
-  // From coarse_ and left_ (the coarse pair's disparity and left image).
-  DisparityBand band_from_coarse(const Plan& p);
-
-  std::unique_ptr<DisparityEngine> engine_;
-  int engine_block_ = 0;  // block size engine_ was made with
-  cv::Mat left_, right_, coarse_, texture_;
-  std::vector<float> found_;
-};
-
-// Keeps the last estimated band while the frames measured in it say it still fits, so that the coarse
-// pass of BandEstimator runs once every few frames instead of on every one (it costs about as much as
-// the narrow-band match itself). Terrain moves little between frames at camera rates, and a band that
-// stops fitting shows at once: matches pile up against its edges or disappear. One per match thread.
-class BandTracker {
- public:
-  // The most frames measured in one estimated band: a refresh that bounds how long a band chosen on
-  // an unusual frame can stay.
-  static constexpr int kMaxFrames = 30;
-
-  // The band to match this frame in, if the last one still fits; std::nullopt: estimate a new one.
-  std::optional<DisparityBand> band() const;
-  // After matching in `band`: the frame's disparities (CV_32FC1 px, NaN invalid), rows
-  // [row_begin, row_end) measured. Keeps the band for the next frame when their 2..98 percentiles stay
-  // at least kEdgePx inside it and the valid share is at least 0.8 of the share on the band's first
-  // frame (and at least 0.25 overall).
-  void update(DisparityBand band, bool estimated, const cv::Mat& disparity, int row_begin, int row_end);
-
- private:
-  static constexpr double kEdgePx = 2.0;
-  DisparityBand band_;
-  int frames_ = 0;  // frames measured in band_; 0: none to keep
-  double first_valid_ = 0;
-  std::vector<float> values_;
-};
-
-DisparityBand estimate_band(const cv::Mat& left_strip, const cv::Mat& right_strip, const StereoGeometry& g,
-                            WorkingRange range);
 
 }  // namespace rutd

@@ -14,10 +14,10 @@
 
 #include <opencv2/core.hpp>
 
+#include "core/rut_measurement.hpp"
 #include "engines/disparity_engine.hpp"
 #include "geometry/stereo_geometry.hpp"
 #include "rut/extract.hpp"
-#include "core/rut_measurement.hpp"
 
 namespace rutd {
 

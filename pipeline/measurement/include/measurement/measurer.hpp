@@ -13,14 +13,15 @@
 
 #include <opencv2/core.hpp>
 
+#include "core/measurement_sink.hpp"
 #include "core/rut_measurement.hpp"
 #include "core/stereo_calibration.hpp"
 #include "core/stereo_frame.hpp"
-#include "refinement/dic_refine.hpp"
 #include "engines/disparity_engine.hpp"
-#include "measurement/frame_checks.hpp"
-#include "core/measurement_sink.hpp"
 #include "geometry/stereo_geometry.hpp"
+#include "measurement/band_estimate.hpp"
+#include "measurement/frame_checks.hpp"
+#include "refinement/dic_refine.hpp"
 #include "rut/extract.hpp"
 
 namespace rutd {

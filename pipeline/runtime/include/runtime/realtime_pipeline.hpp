@@ -25,11 +25,11 @@
 #include <vector>
 
 #include "core/frame_source.hpp"
+#include "core/measurement_sink.hpp"
 #include "core/monotonic_clock.hpp"
 #include "core/sensor_health.hpp"
-#include "runtime/latency_stats.hpp"
-#include "core/measurement_sink.hpp"
 #include "measurement/measurer.hpp"
+#include "runtime/latency_stats.hpp"
 
 namespace rutd {
 
