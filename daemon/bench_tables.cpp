@@ -55,7 +55,7 @@ MeasurerConfig config_for(EngineKind engine, bool dic, bool full, cv::Size size)
   MeasurerConfig c;
   c.engine = engine;
   c.dic = dic;
-  if (full) c.strip = StripRoi{0, size.height};
+  if (full) c.strip = StripConfig{size.height, 0};
   return c;
 }
 

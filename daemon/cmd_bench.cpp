@@ -95,7 +95,7 @@ void run(const char* mode, const char* regime, const SyntheticRenderer& renderer
   // CPU per published pair: with the stages on separate threads, hardware_concurrency / cpu_per_pair is
   // the rate a machine of that many idle cores could reach, whatever else shares this one.
   const double cpu_per_pair = s.published > 0 ? cpu_ms / static_cast<double>(s.published) : 0.0;
-  const StripRoi strip = measurer.config().strip;
+  const StripRoi strip = measurer.strip();
   if (o.json) {
     // depth_err_mm: the worst |depth - truth| over the OK measurements (null when there was none).
     const std::string err = sink.ok ? fmt::format("{:.4f}", sink.worst_error_mm) : "null";
@@ -141,7 +141,7 @@ int run_bench(const Options& o) {
   strip.engine = *parse_engine(o.engine);
   strip.dic = o.dic;
   MeasurerConfig full = strip;
-  full.strip = StripRoi{0, p.rig.image_size.height};
+  full.strip = StripConfig{p.rig.image_size.height, 0};
   run("strip", "throughput", renderer, frames, strip, true, 0, o);
   run("strip", "live", renderer, frames, strip, false, o.fps, o);
   run("full", "throughput", renderer, frames, full, true, 0, o);

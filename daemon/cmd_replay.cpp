@@ -94,7 +94,7 @@ int run_replay(const ReplayOptions& o) {
   // kept, instead of killing it.
   std::signal(SIGXFSZ, SIG_IGN);
   ReplaySource reader(o.dir);  // throws InputError for a bad folder, calibration or header
-  const MeasurerConfig config = resolve_measure_options(o.measure, reader.calibration().image_size);
+  const MeasurerConfig config = resolve_measure_options(o.measure);
   StereoMeasurer measurer(reader.calibration(), config);
 
   // The sinks of `rutd run`, with its status period and no-output rule (PipelineConfig's defaults).

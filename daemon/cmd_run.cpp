@@ -2,7 +2,7 @@
 // pipeline (acquire -> rectify -> match -> extract -> publish), publishes every measurement as CAN
 // frames plus a periodic status frame, and talks to systemd (READY, STATUS, WATCHDOG). With no options it
 // runs on any machine: synthetic cameras at their real frame rate, CAN frames on stdout (candump -L
-// format), logs on stderr. SIGINT/SIGTERM: stop, drain, exit 0 within a second. With sinks.record (or
+// format), logs on stderr. SIGINT/SIGTERM: stop, drain, exit 0 within a second. With source.record (or
 // --record DIR) the raw pairs are also recorded (recording/frame_recorder.hpp); a recording that fails
 // (disk full, file too large) stops with one error and raises RecordingError in the status frames
 // while measuring goes on; so does a measurement CSV row that cannot be written (sinks.csv, which
@@ -52,7 +52,7 @@ RutdConfig effective_config(const RunOptions& o) {
   if (o.socketcan) c.sinks.socketcan = *o.socketcan;
   if (o.candump) c.sinks.candump = *o.candump;
   if (o.csv) c.sinks.csv = *o.csv;
-  if (o.record) c.sinks.record = *o.record;
+  if (o.record) c.record = *o.record;
   if (o.no_dic) c.measurement.dic = false;
   if (o.engine) c.measurement.engine = *parse_engine(*o.engine);  // checked by IsMember
   if (o.replay_dir) {
@@ -112,10 +112,10 @@ int run_daemon(const RunOptions& o, const RunInjection& injection) {
   // Created after every other start-up check, so a start that fails leaves no empty recording behind
   // (which would block the next start: an existing recording is refused, InputError, never overwritten).
   std::unique_ptr<FrameRecorder> recorder;
-  if (!c.sinks.record.empty()) {
+  if (!c.record.empty()) {
     FrameRecorderConfig recording;
     recording.writer.faults = injection.faults;
-    recorder = std::make_unique<FrameRecorder>(c.sinks.record, source->calibration(), recording);
+    recorder = std::make_unique<FrameRecorder>(c.record, source->calibration(), recording);
     source = std::make_unique<RecordingTee>(std::move(source), *recorder);
   }
   std::unique_ptr<CandumpLogWriter> log;
@@ -136,15 +136,16 @@ int run_daemon(const RunOptions& o, const RunInjection& injection) {
   std::vector<MeasurementSink*> sinks{&can_status, &latest};
   if (csv) sinks.push_back(csv.get());
   std::unique_ptr<PlotSink> plots;
-  if (c.plots_enabled) {
+  if (c.sinks.plots_enabled) {
     std::error_code ec;
-    std::filesystem::create_directories(c.plots.dir, ec);
-    if (ec) throw InputError(c.file, "plots.dir", c.plots.dir + ": cannot create the folder: " + ec.message());
+    std::filesystem::create_directories(c.sinks.plots.dir, ec);
+    if (ec)
+      throw InputError(c.file, "sinks.plots.dir", c.sinks.plots.dir + ": cannot create the folder: " + ec.message());
     try {
-      plots =
-          std::make_unique<PlotSink>(c.plots, PlotContext{source->calibration(), measurer.geometry().rectification()});
+      plots = std::make_unique<PlotSink>(c.sinks.plots,
+                                         PlotContext{source->calibration(), measurer.geometry().rectification()});
     } catch (const std::invalid_argument& e) {
-      throw InputError(c.file, "plots.dir", e.what());
+      throw InputError(c.file, "sinks.plots.dir", e.what());
     }
     sinks.push_back(plots.get());
   }
@@ -195,7 +196,7 @@ int run_daemon(const RunOptions& o, const RunInjection& injection) {
   if (plots) {
     const PlotSinkStats p = plots->finish();
     spdlog::info("plots {}: {} files written for {} frames, {} frames dropped (plot thread behind), {} errors{}",
-                 c.plots.dir, p.files_written, p.frames_plotted, p.dropped, p.errors,
+                 c.sinks.plots.dir, p.files_written, p.frames_plotted, p.dropped, p.errors,
                  p.errors > 0 ? " (the last: " + p.last_error + ")" : std::string());
   }
   if (bus) {
@@ -220,7 +221,7 @@ void add_run_command(CLI::App& app, int& exit_code, RunInjection injection) {
   cmd->add_option("--candump", o->candump,
                   "candump -L log of the frames sent, '-' for stdout, '' for none (sinks.candump)");
   cmd->add_option("--csv", o->csv, "Measurement CSV file (sinks.csv)");
-  cmd->add_option("--record", o->record, "Also record the raw pairs into this new folder (sinks.record)");
+  cmd->add_option("--record", o->record, "Also record the raw pairs into this new folder (source.record)");
   cmd->add_option("--replay", o->replay_dir,
                   "Measure a recording folder at its own pace instead of the configured source");
   cmd->add_option("--size", o->size, "Synthetic camera image size WIDTHxHEIGHT (source.synthetic.size)");

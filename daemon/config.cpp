@@ -3,6 +3,7 @@
 #include <chrono>
 #include <fstream>
 #include <functional>
+#include <optional>
 #include <set>
 #include <sstream>
 
@@ -76,6 +77,16 @@ class Section {
   Section child(const char* key) {
     known_.insert(key);
     return Section(present(key), name(key), file_);
+  }
+
+  // A key of an older release that has moved: refused, naming the key that replaced it (a file written
+  // for another release must not be half-read).
+  Section& moved(const char* key, const std::string& now) {
+    known_.insert(key);
+    if (!node_ || !node_.IsMap()) return *this;
+    for (const auto& kv : node_)
+      if (key_text(kv.first) == key) fail_at(kv.first, name(key), "moved: now " + now);
+    return *this;
   }
 
   bool has(const char* key) const { return static_cast<bool>(present(key)); }
@@ -199,8 +210,39 @@ void read_synthetic(Section s, SyntheticRendererConfig& p, int& cycle_frames) {
   s.finish();
 }
 
+// measurement.strip.first_row: a row number, or `centred`.
+std::string parse_first_row(const std::string& t, std::optional<int>& row) {
+  if (t == "centred") {
+    row.reset();
+    return {};
+  }
+  std::size_t used = 0;
+  int v = -1;
+  try {
+    v = std::stoi(t, &used);
+  } catch (const std::exception&) {
+    used = 0;
+  }
+  if (used == t.size() && v >= 0 && v <= 65535) {
+    row = v;
+    return {};
+  }
+  return "expected centred or a row number 0..65535, got '" + t + "'" +
+         (t == "-1" ? std::string(" (-1 for centred is now written centred)") : std::string());
+}
+
+void read_strip(Section s, StripConfig& strip) {
+  std::optional<int> first_row = strip.first_row;
+  s.get<int>("rows", strip.rows, in_range(0, 4096)).parse("first_row", [&](const std::string& t) {
+    return parse_first_row(t, first_row);
+  });
+  if (first_row && strip.rows == 0) s.fail("first_row", "needs rows too");
+  strip.first_row = first_row;
+  s.finish();
+}
+
 void read_measurement(Section s, MeasurerConfig& m) {
-  int strip_rows = m.strip.rows, strip_row0 = -1;
+  s.moved("strip_rows", "measurement.strip.rows").moved("strip_row0", "measurement.strip.first_row (centred or a row)");
   s.parse("engine",
           [&](const std::string& t) {
             const auto e = parse_engine(t);
@@ -219,15 +261,10 @@ void read_measurement(Section s, MeasurerConfig& m) {
                   return v == 0 || (v >= 16 && v <= 65535) ? std::string()
                                                            : "expected 0 (off) or 16..65535, got " + std::to_string(v);
                 })
-      .get<int>("strip_rows", strip_rows, in_range(0, 4096))
-      .get<int>("strip_row0", strip_row0, in_range(-1, 65535))
       .get<double>("near_mm", m.range.near_mm, in_range(20.0, 20000.0))
       .get<double>("far_mm", m.range.far_mm, in_range(20.0, 20000.0));
   if (m.range.near_mm >= m.range.far_mm) s.fail("near_mm", "must be smaller than far_mm");
-  if (strip_row0 >= 0 && strip_rows == 0) s.fail("strip_row0", "needs strip_rows too");
-  m.strip = StripRoi{std::max(strip_row0, 0), strip_rows};
-  // A strip given by its rows only is centred once the image size is known (see resolve_strip_rows).
-  if (strip_rows > 0 && strip_row0 < 0) m.strip.row0 = -1;
+  read_strip(s.child("strip"), m.strip);
   s.finish();
 }
 
@@ -334,6 +371,20 @@ void read_aravis(Section s, AravisSourceConfig& a) {
   s.finish();
 }
 
+void read_plots(Section plots, SinkConfig& c) {
+  int plot_every = 0, plot_queue = static_cast<int>(c.plots.queue);
+  plots.get<bool>("enabled", c.plots_enabled)
+      .get<std::string>("dir", c.plots.dir)
+      .get<int>("every", plot_every, in_range(0, 1000000))
+      .get<double>("min_interval_s", c.plots.min_interval_s, in_range(0.0, 3600.0))
+      .get<int>("queue", plot_queue, in_range(1, 64))
+      .get<double>("series_period_s", c.plots.series_period_s, in_range(0.0, 86400.0));
+  if (c.plots_enabled && c.plots.dir.empty()) plots.fail("dir", "must name a folder when enabled is true");
+  plots.finish();
+  c.plots.every = static_cast<std::uint64_t>(plot_every);
+  c.plots.queue = static_cast<std::size_t>(plot_queue);
+}
+
 }  // namespace
 
 RutdConfig parse_config(const std::string& yaml_text, const std::string& file) {
@@ -362,6 +413,7 @@ RutdConfig parse_config(const std::string& yaml_text, const std::string& file) {
   if (c.source == SourceKind::Replay && c.replay.dir.empty())
     replay.fail("dir", "the replay source needs a recording folder");
   read_aravis(source.child("aravis"), c.aravis);
+  source.get<std::string>("record", c.record);
   source.finish();
 
   top.get<std::string>("calibration", c.calibration);
@@ -380,11 +432,12 @@ RutdConfig parse_config(const std::string& yaml_text, const std::string& file) {
   read_can(top.child("can"), c.can);
 
   Section sinks = top.child("sinks");
-  sinks.get<std::string>("socketcan", c.sinks.socketcan)
+  sinks.moved("record", "source.record (a recording passes the source through; it is not a sink)")
+      .get<std::string>("socketcan", c.sinks.socketcan)
       .get<std::string>("candump", c.sinks.candump)
       .get<std::string>("can_interface_name", c.sinks.can_interface_name)
-      .get<std::string>("csv", c.sinks.csv)
-      .get<std::string>("record", c.sinks.record);
+      .get<std::string>("csv", c.sinks.csv);
+  read_plots(sinks.child("plots"), c.sinks);
   sinks.finish();
 
   Section pipeline = top.child("pipeline");
@@ -402,18 +455,7 @@ RutdConfig parse_config(const std::string& yaml_text, const std::string& file) {
   for (std::size_t i = 0; i < cpu_affinity.size() && i < kStageCount; ++i) c.pipeline.threads[i].cpu = cpu_affinity[i];
   for (ThreadPlacement& t : c.pipeline.threads) t.fifo_priority = realtime_priority;
 
-  Section plots = top.child("plots");
-  int plot_every = 0, plot_queue = static_cast<int>(c.plots.queue);
-  plots.get<bool>("enabled", c.plots_enabled)
-      .get<std::string>("dir", c.plots.dir)
-      .get<int>("every", plot_every, in_range(0, 1000000))
-      .get<double>("min_interval_s", c.plots.min_interval_s, in_range(0.0, 3600.0))
-      .get<int>("queue", plot_queue, in_range(1, 64))
-      .get<double>("series_period_s", c.plots.series_period_s, in_range(0.0, 86400.0));
-  if (c.plots_enabled && c.plots.dir.empty()) plots.fail("dir", "must name a folder when plots.enabled is true");
-  plots.finish();
-  c.plots.every = static_cast<std::uint64_t>(plot_every);
-  c.plots.queue = static_cast<std::size_t>(plot_queue);
+  top.moved("plots", "sinks.plots");
 
   Section logging = top.child("logging");
   logging.parse("level", [&](const std::string& t) {

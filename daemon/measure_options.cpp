@@ -1,5 +1,8 @@
 #include "daemon/measure_options.hpp"
 
+#include <exception>
+#include <string>
+
 namespace rutd {
 
 void add_measure_options(CLI::App& cmd, MeasureOptions& o) {
@@ -11,8 +14,15 @@ void add_measure_options(CLI::App& cmd, MeasureOptions& o) {
   cmd.add_option("--strip-rows", o.strip_rows,
                  "Rows of the rectified image measured (0: a tenth of the height, 20..64)")
       ->check(CLI::Range(0, 4096));
-  cmd.add_option("--strip-row0", o.strip_row0, "First rectified row of the strip (-1: centred)")
-      ->check(CLI::Range(-1, 65535));
+  cmd.add_option("--strip-first-row", o.strip_first_row, "First rectified row of the strip: centred, or a row number")
+      ->capture_default_str();
+  // The option of older releases, refused with its replacement (hidden from --help).
+  cmd.add_option_function<std::string>("--strip-row0",
+                                       [](const std::string&) {
+                                         throw CLI::ValidationError(
+                                             "--strip-row0", "replaced by --strip-first-row (centred or a row number)");
+                                       })
+      ->group("");
   cmd.add_option("--near-mm", o.config.range.near_mm, "Nearest plausible camera-to-terrain distance, mm")
       ->check(CLI::Range(20.0, 20000.0))
       ->capture_default_str();
@@ -27,16 +37,28 @@ void add_measure_options(CLI::App& cmd, MeasureOptions& o) {
       ->capture_default_str();
 }
 
-MeasurerConfig resolve_measure_options(const MeasureOptions& o, cv::Size image_size) {
+MeasurerConfig resolve_measure_options(const MeasureOptions& o) {
   MeasurerConfig c = o.config;
   c.engine = *parse_engine(o.engine);  // IsMember above guarantees a known name
   c.dic = !o.no_dic;
   if (c.range.near_mm >= c.range.far_mm) throw CLI::ValidationError("--near-mm", "must be smaller than --far-mm");
   if (c.rut.min_rut_width_mm >= c.rut.max_rut_width_mm)
     throw CLI::ValidationError("--min-width-mm", "must be smaller than --max-width-mm");
-  if (o.strip_rows > 0 || o.strip_row0 >= 0) {
-    c.strip.rows = o.strip_rows > 0 ? o.strip_rows : default_strip(image_size).rows;
-    c.strip.row0 = o.strip_row0;  // -1: centred
+  c.strip.rows = o.strip_rows;
+  c.strip.first_row.reset();
+  if (o.strip_first_row != "centred") {
+    std::size_t used = 0;
+    int row = -1;
+    try {
+      row = std::stoi(o.strip_first_row, &used);
+    } catch (const std::exception&) {
+      used = 0;
+    }
+    if (used != o.strip_first_row.size() || row < 0 || row > 65535)
+      throw CLI::ValidationError("--strip-first-row",
+                                 "expected centred or a row number 0..65535, got '" + o.strip_first_row + "'" +
+                                     (o.strip_first_row == "-1" ? " (-1 for centred is now written centred)" : ""));
+    c.strip.first_row = row;
   }
   return c;
 }

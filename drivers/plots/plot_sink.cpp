@@ -37,12 +37,10 @@ struct PlotSink::Queues {
 };
 
 PlotSink::PlotSink(PlotConfig config, PlotContext context) : config_(std::move(config)), context_(std::move(context)) {
-  if (config_.queue == 0) throw std::invalid_argument("plots.queue: must be at least 1");
+  if (config_.queue == 0) throw std::invalid_argument("plot queue: must be at least 1");
   std::error_code ec;
-  if (!std::filesystem::is_directory(config_.dir, ec))
-    throw std::invalid_argument("plots.dir: " + config_.dir + ": not a folder");
-  if (::access(config_.dir.c_str(), W_OK) != 0)
-    throw std::invalid_argument("plots.dir: " + config_.dir + ": not writable");
+  if (!std::filesystem::is_directory(config_.dir, ec)) throw std::invalid_argument(config_.dir + ": not a folder");
+  if (::access(config_.dir.c_str(), W_OK) != 0) throw std::invalid_argument(config_.dir + ": not writable");
   queues_ = std::make_unique<Queues>(config_.queue);
   for (std::size_t i = 0; i < config_.queue; ++i) {
     jobs_.push_back(std::make_unique<Job>());

@@ -33,12 +33,14 @@ int margin_for(const MeasurerConfig& config) {
 
 StripRoi measured_strip(const StereoCalibration& calibration, const MeasurerConfig& config) {
   // stereoRectify keeps the raw image size, so the strip is resolved before the geometry exists.
-  StripRoi strip = config.strip.rows > 0 ? config.strip : default_strip(calibration.image_size);
-  if (strip.row0 < 0) strip.row0 = (calibration.image_size.height - strip.rows) / 2;  // centred
-  if (strip.row0 < 0 || strip.rows <= 0 || strip.row0 + strip.rows > calibration.image_size.height)
+  const int height = calibration.image_size.height;
+  StripRoi strip = default_strip(calibration.image_size);
+  if (config.strip.rows > 0) strip = StripRoi{(height - config.strip.rows) / 2, config.strip.rows};
+  if (config.strip.first_row) strip.row0 = *config.strip.first_row;
+  if (strip.row0 < 0 || strip.rows <= 0 || strip.row0 + strip.rows > height)
     throw std::invalid_argument("strip rows " + std::to_string(strip.row0) + ".." +
                                 std::to_string(strip.row0 + strip.rows) + " outside the image height " +
-                                std::to_string(calibration.image_size.height));
+                                std::to_string(height));
   return strip;
 }
 
@@ -58,9 +60,11 @@ StripRoi default_strip(cv::Size rectified_size) {
 }
 
 StereoMeasurer::StereoMeasurer(const StereoCalibration& calibration, const MeasurerConfig& config)
-    : config_(config), image_size_(calibration.image_size), geometry_(calibration, matched_strip(calibration, config)) {
+    : config_(config),
+      strip_(measured_strip(calibration, config)),
+      image_size_(calibration.image_size),
+      geometry_(calibration, matched_strip(calibration, config)) {
   validate(config_.conditions);
-  config_.strip = measured_strip(calibration, config);
   // measure()'s engine is made on its first call: the real-time pipeline and replay make their own, and a
   // GPU engine made here too would open the device twice. Bad parameters still throw here.
   check_engine(config_.engine, config_.engine_config);
@@ -78,8 +82,8 @@ bool StereoMeasurer::rectify(FrameWork& w) const {
   w.geometry = RutGeometry{};
   w.measured = false;
   w.strip_row0 = geometry_.roi().row0;
-  w.measured_row0 = config_.strip.row0;
-  w.measured_rows = config_.strip.rows;
+  w.measured_row0 = strip_.row0;
+  w.measured_rows = strip_.rows;
   const cv::Mat& l = w.frame.left;
   const cv::Mat& r = w.frame.right;
   if (l.size() != image_size_ || r.size() != image_size_ || l.type() != r.type() || l.channels() != 1 ||
@@ -101,10 +105,10 @@ bool StereoMeasurer::device_rectifies(const StereoFrame& frame) const {
 DicConfig StereoMeasurer::strip_dic_config() const {
   // Only the measured rows are refined; the margin rows were matched as context for the windows.
   DicConfig dic = config_.dic_config;
-  dic.row_begin = config_.strip.row0 - geometry_.roi().row0;
-  dic.row_end = dic.row_begin + config_.strip.rows;
+  dic.row_begin = strip_.row0 - geometry_.roi().row0;
+  dic.row_end = dic.row_begin + strip_.rows;
   dic.column_windows = uses_column_windows(config_);
-  dic.column_block_rows = column_block_rows(config_.strip);
+  dic.column_block_rows = column_block_rows(strip_);
   return dic;
 }
 
@@ -173,8 +177,8 @@ void StereoMeasurer::match(FrameWork& w, MatchContext& context) const {
   w.diag.band_estimated = !kept;
   w.diag.band = kept ? *kept : estimate_band(w, context);
   w.diag.band_ms = ms_since(t0);
-  const int row_begin = config_.strip.row0 - geometry_.roi().row0;
-  const int row_end = row_begin + config_.strip.rows;
+  const int row_begin = strip_.row0 - geometry_.roi().row0;
+  const int row_end = row_begin + strip_.rows;
 
   // Starts from the last frame need a band that still fits, and nothing to be matched afresh.
   const bool reuse = !matched && config_.dic && config_.reuse_starts && !w.diag.band_estimated &&
@@ -286,15 +290,15 @@ void StereoMeasurer::extract(FrameWork& w, RutWorkspace& workspace) const {
   auto t0 = Clock::now();
   geometry_.reproject(w.disparity, w.xyz);
   // Only the configured strip is measured: the margin rows were matched for context.
-  const int first = config_.strip.row0 - geometry_.roi().row0;
-  const cv::Mat measured = w.xyz.rowRange(first, first + config_.strip.rows);
+  const int first = strip_.row0 - geometry_.roi().row0;
+  const cv::Mat measured = w.xyz.rowRange(first, first + strip_.rows);
   w.diag.reproject_ms = ms_since(t0);
 
   t0 = Clock::now();
   reduce_to_cross_section(measured, config_.rut, w.section);
   w.measurement = extract_rut(w.section, config_.rut, workspace);
-  check_frame(w.left_strip, w.right_strip, w.disparity, first, first + config_.strip.rows, geometry_,
-              workspace.geometry, w.diag.band, config_.conditions, w.checks, w.measurement);
+  check_frame(w.left_strip, w.right_strip, w.disparity, first, first + strip_.rows, geometry_, workspace.geometry,
+              w.diag.band, config_.conditions, w.checks, w.measurement);
   w.geometry = workspace.geometry;
   w.measured = true;
   w.diag.rut_ms = ms_since(t0);

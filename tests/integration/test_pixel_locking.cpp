@@ -24,7 +24,7 @@ Bias bottom_bias(const SyntheticRenderer& r, const StereoMeasurer& m, const cv::
   const cv::Matx44d& q = g.Q();
   const double f = g.focal_px(), cx = -q(0, 3), cy = -q(1, 3);
   const double bottom_z = r.params().rig.height_mm + r.depth_mm(0);
-  const StripRoi strip = m.config().strip;
+  const StripRoi strip = m.strip();
   Bias b;
   double sum_err = 0, sum_truth = 0;
   for (int y = strip.row0; y < strip.row0 + strip.rows; ++y) {

@@ -94,5 +94,19 @@ TEST_F(ReplayErrors, FullDiskStopsTheReplayKeepingTheRowsWritten) {
               static_cast<std::uintmax_t>(fs::file_size(csv())));
 }
 
+// The strip's placement on the command line: `--strip-first-row centred` or a row. The option of older
+// releases (--strip-row0, where -1 meant centred) and the old value are refused, naming the new form.
+TEST_F(ReplayErrors, OldStripOptionIsRefusedNamingItsReplacement) {
+  const std::string err = (tmp_.path() / "err.txt").string();
+  EXPECT_NE(test::run_rutd("replay " + rec_ + " --out " + csv() + " --strip-row0 -1", err), 0);
+  EXPECT_NE(test::read_text(err).find("--strip-row0: replaced by --strip-first-row"), std::string::npos)
+      << test::read_text(err);
+  EXPECT_NE(test::run_rutd("replay " + rec_ + " --out " + csv() + " --strip-first-row -1", err), 0);
+  EXPECT_NE(test::read_text(err).find("now written centred"), std::string::npos) << test::read_text(err);
+  EXPECT_EQ(test::run_rutd("replay " + rec_ + " --out " + csv() + " --strip-rows 40 --strip-first-row 200", err), 0)
+      << test::read_text(err);
+  EXPECT_EQ(read_measurement_csv(csv()).rows.size(), 4u);
+}
+
 }  // namespace
 }  // namespace rutd

@@ -79,8 +79,8 @@ TEST(RunPlots, ConfigurationSectionPlotsALiveRun) {
   const std::string err = (tmp.path() / "err.txt").string();
   std::ofstream(cfg) << "source:\n  type: synthetic\n  synthetic:\n    size: 320x240\n    cycle_frames: 2\n"
                         "sinks:\n  candump: \"\"\n"
-                        "plots:\n  enabled: true\n  dir: "
-                     << plots << "\n  every: 10\n  min_interval_s: 0\n";
+                        "  plots:\n    enabled: true\n    dir: "
+                     << plots << "\n    every: 10\n    min_interval_s: 0\n";
   ASSERT_EQ(test::run_rutd("run --config " + cfg + " --frames 30", err), 0) << test::read_text(err);
   const std::string log = test::read_text(err);
   EXPECT_NE(log.find("plots " + plots + ": "), std::string::npos) << log;

@@ -109,7 +109,7 @@ TEST(StatusBits, FrameDropsRaisedWhenPairsComeFasterThanTheyAreMeasured) {
   if (!test::have_canmatrix()) GTEST_SKIP() << "needs /usr/bin/python3 with canmatrix (python3-canmatrix)";
   const test::TempDir tmp;
   const auto frames =
-      run_paced_replay("--frames 40 --fps 1000 --seed 5", "measurement:\n  engine: hh\n  strip_rows: 400\n", tmp);
+      run_paced_replay("--frames 40 --fps 1000 --seed 5", "measurement:\n  engine: hh\n  strip:\n    rows: 400\n", tmp);
   int measurements = 0, status = 0, raised = 0;
   double last_dropped = -1;
   for (const auto& f : frames) {

@@ -49,7 +49,7 @@ std::string dump(const RutdConfig& c) {
     << "\npiles=" << y.rut.pile_left_mm << "," << y.rut.pile_right_mm << "," << y.rut.pile_width_mm
     << "\nwander=" << y.rut.wander_amplitude_mm << "\nspeed=" << y.speed_mm_s << "\nnoise=" << y.noise_sigma
     << "\nseed=" << y.seed << "\ncycle_frames=" << c.synthetic_cycle_frames;
-  o << "\nreplay=" << c.replay.dir << "," << c.replay.paced << "," << c.replay.loop;
+  o << "\nreplay=" << c.replay.dir << "," << c.replay.paced << "," << c.replay.loop << "\nrecord=" << c.record;
   const AravisSourceConfig& a = c.aravis;
   const auto region = [](const SensorRegion& r) {
     return std::to_string(r.x) + "," + std::to_string(r.y) + "," + std::to_string(r.width) + "," +
@@ -65,17 +65,18 @@ std::string dump(const RutdConfig& c) {
   const MeasurerConfig& m = c.measurement;
   o << "\ncalibration=" << c.calibration << "\nengine=" << static_cast<int>(m.engine)
     << "\ngpu_device=" << m.engine_config.gpu_device << "\nsgm_paths=" << m.engine_config.sgm_paths
-    << "\nsgm_segment=" << m.engine_config.sgm_segment << "\ndic=" << m.dic << "\nstrip=" << m.strip.row0 << ","
-    << m.strip.rows << "\nrange=" << m.range.near_mm << "," << m.range.far_mm << "\nrut=" << m.rut.min_rut_width_mm
-    << "," << m.rut.max_rut_width_mm << "," << m.rut.fit_window_mm << "," << m.rut.bin_mm << ","
-    << m.rut.min_rut_depth_mm;
+    << "\nsgm_segment=" << m.engine_config.sgm_segment << "\ndic=" << m.dic << "\nstrip=" << m.strip.rows << ","
+    << m.strip.first_row.value_or(-1) << "\nrange=" << m.range.near_mm << "," << m.range.far_mm
+    << "\nrut=" << m.rut.min_rut_width_mm << "," << m.rut.max_rut_width_mm << "," << m.rut.fit_window_mm << ","
+    << m.rut.bin_mm << "," << m.rut.min_rut_depth_mm;
   o << "\ncan=" << c.can.extended << "," << int(c.can.source_address) << "," << int(c.can.priority);
   o << "\nsinks=" << c.sinks.socketcan << "," << c.sinks.candump << "," << c.sinks.can_interface_name << ","
-    << c.sinks.csv << "," << c.sinks.record;
+    << c.sinks.csv;
   o << "\npipeline=" << c.pipeline.max_frame_age.count() << "," << c.pipeline.status_period.count();
   for (const ThreadPlacement& t : c.pipeline.threads) o << "," << t.cpu << "/" << t.fifo_priority;
-  o << "\nplots=" << c.plots_enabled << "," << c.plots.dir << "," << c.plots.every << "," << c.plots.min_interval_s
-    << "," << c.plots.queue << "," << c.plots.series_period_s;
+  const PlotConfig& p = c.sinks.plots;
+  o << "\nplots=" << c.sinks.plots_enabled << "," << p.dir << "," << p.every << "," << p.min_interval_s << ","
+    << p.queue << "," << p.series_period_s;
   o << "\nlogging=" << c.logging.level << "," << c.logging.stats_period_s << "\n";
   return o.str();
 }
@@ -136,7 +137,7 @@ TEST(Config, InstalledFileSendsOnCanAndLogsSummaries) {
 TEST(Config, ValuesAreRead) {
   const RutdConfig c = parse_config(
       "source:\n  type: replay\n  replay:\n    dir: /data/run1\n    loop: true\n"
-      "measurement:\n  engine: hh\n  dic: false\n  strip_rows: 32\n"
+      "measurement:\n  engine: hh\n  dic: false\n  strip:\n    rows: 32\n"
       "can:\n  id_format: 11bit\n  source_address: 0x42\n"
       "rut:\n  min_width_mm: 100\n  max_width_mm: 300\n"
       "pipeline:\n  cpu_affinity: [0, 1]\n",
@@ -147,7 +148,7 @@ TEST(Config, ValuesAreRead) {
   EXPECT_EQ(c.measurement.engine, EngineKind::Hh);
   EXPECT_FALSE(c.measurement.dic);
   EXPECT_EQ(c.measurement.strip.rows, 32);
-  EXPECT_EQ(c.measurement.strip.row0, -1);
+  EXPECT_FALSE(c.measurement.strip.first_row) << "centred";
   EXPECT_FALSE(c.can.extended);
   EXPECT_EQ(c.can.source_address, 0x42);
   EXPECT_EQ(c.measurement.rut.min_rut_width_mm, 100);
@@ -180,29 +181,60 @@ TEST(Config, WrongTypeIsNamed) {
   expect_error("pipeline:\n  cpu_affinity: [0, x]\n", {"pipeline.cpu_affinity", "integer"});
 }
 
-TEST(Config, RecordSinkIsOffByDefaultAndReadAsText) {
-  EXPECT_TRUE(parse_config(default_config_text(), "(embedded default)").sinks.record.empty());
-  EXPECT_EQ(parse_config("sinks:\n  record: /data/rec1\n", "test.yaml").sinks.record, "/data/rec1");
-  expect_error("sinks:\n  record: [a, b]\n", {"line 2", "sinks.record", "expected text"});
-  expect_error("sinks:\n  record:\n    dir: x\n", {"sinks.record", "expected text"});
+TEST(Config, RecordingTeeIsOffByDefaultAndReadAsText) {
+  EXPECT_TRUE(parse_config(default_config_text(), "(embedded default)").record.empty());
+  EXPECT_EQ(parse_config("source:\n  record: /data/rec1\n", "test.yaml").record, "/data/rec1");
+  expect_error("source:\n  record: [a, b]\n", {"line 2", "source.record", "expected text"});
+  expect_error("source:\n  record:\n    dir: x\n", {"source.record", "expected text"});
 }
 
 TEST(Config, PlotsAreOffByDefaultAndNeedAFolder) {
   const RutdConfig d = parse_config(default_config_text(), "(embedded default)");
-  EXPECT_FALSE(d.plots_enabled);
+  EXPECT_FALSE(d.sinks.plots_enabled);
   const RutdConfig c = parse_config(
-      "plots:\n  enabled: true\n  dir: /tmp/p\n  every: 30\n  min_interval_s: 2\n"
-      "  queue: 2\n  series_period_s: 0\n",
+      "sinks:\n  plots:\n    enabled: true\n    dir: /tmp/p\n    every: 30\n    min_interval_s: 2\n"
+      "    queue: 2\n    series_period_s: 0\n",
       "test.yaml");
-  EXPECT_TRUE(c.plots_enabled);
-  EXPECT_EQ(c.plots.dir, "/tmp/p");
-  EXPECT_EQ(c.plots.every, 30u);
-  EXPECT_EQ(c.plots.min_interval_s, 2.0);
-  EXPECT_EQ(c.plots.queue, 2u);
-  EXPECT_EQ(c.plots.series_period_s, 0.0);
-  EXPECT_FALSE(c.plots.lossless);  // a live run drops plots, never measurements
-  expect_error("plots:\n  enabled: true\n", {"plots.dir", "must name a folder"});
-  expect_error("plots:\n  queue: 0\n", {"line 2", "plots.queue"});
+  EXPECT_TRUE(c.sinks.plots_enabled);
+  EXPECT_EQ(c.sinks.plots.dir, "/tmp/p");
+  EXPECT_EQ(c.sinks.plots.every, 30u);
+  EXPECT_EQ(c.sinks.plots.min_interval_s, 2.0);
+  EXPECT_EQ(c.sinks.plots.queue, 2u);
+  EXPECT_EQ(c.sinks.plots.series_period_s, 0.0);
+  EXPECT_FALSE(c.sinks.plots.lossless);  // a live run drops plots, never measurements
+  expect_error("sinks:\n  plots:\n    enabled: true\n", {"sinks.plots.dir", "must name a folder"});
+  expect_error("sinks:\n  plots:\n    queue: 0\n", {"line 3", "sinks.plots.queue"});
+}
+
+TEST(Config, StripIsCentredUnlessItsFirstRowIsGiven) {
+  const MeasurerConfig centred = parse_config("measurement:\n  strip:\n    rows: 40\n", "test.yaml").measurement;
+  EXPECT_EQ(centred.strip.rows, 40);
+  EXPECT_FALSE(centred.strip.first_row);
+  const MeasurerConfig placed =
+      parse_config("measurement:\n  strip:\n    rows: 40\n    first_row: 120\n", "test.yaml").measurement;
+  ASSERT_TRUE(placed.strip.first_row);
+  EXPECT_EQ(*placed.strip.first_row, 120);
+  EXPECT_FALSE(parse_config("measurement:\n  strip:\n    rows: 40\n    first_row: centred\n", "test.yaml")
+                   .measurement.strip.first_row);
+  expect_error("measurement:\n  strip:\n    first_row: 10\n", {"line 3", "measurement.strip.first_row", "rows"});
+  expect_error("measurement:\n  strip:\n    rows: 40\n    first_row: middle\n",
+               {"line 4", "measurement.strip.first_row", "centred or a row number", "middle"});
+  // The old spelling of centred is refused, saying the new one.
+  expect_error("measurement:\n  strip:\n    rows: 40\n    first_row: -1\n",
+               {"line 4", "measurement.strip.first_row", "now written centred"});
+}
+
+// A file written for an older release: each moved key is refused with one error naming the file, the
+// line, the old key and the key that replaced it, never half-read.
+TEST(Config, MovedKeysAreRefusedNamingTheirNewPlace) {
+  expect_error("sinks:\n  csv: m.csv\n  record: /data/rec1\n",
+               {"test.yaml", "line 3", "sinks.record", "moved: now source.record"});
+  expect_error("source:\n  type: synthetic\nplots:\n  enabled: true\n  dir: /tmp/p\n",
+               {"test.yaml", "line 3", "plots", "moved: now sinks.plots"});
+  expect_error("measurement:\n  engine: hh\n  strip_rows: 32\n",
+               {"test.yaml", "line 3", "measurement.strip_rows", "moved: now measurement.strip.rows"});
+  expect_error("measurement:\n  strip_row0: -1\n",
+               {"test.yaml", "line 2", "measurement.strip_row0", "moved: now measurement.strip.first_row", "centred"});
 }
 
 TEST(Config, ImpossibleValuesAreNamed) {

@@ -24,12 +24,21 @@ struct ReplaySourceConfig {
   bool loop = false;  // start again at the end
 };
 
+// The `sinks` section: where measurements go.
 struct SinkConfig {
   std::string socketcan;                    // CAN interface (e.g. can0); empty: off
   std::string candump = "-";                // candump -L log file; "-": standard output; empty: off
   std::string can_interface_name = "can0";  // interface name written in the candump log
   std::string csv;                          // measurement CSV file; empty: off
-  std::string record;                       // recording folder (raw pairs, DESIGN.md Formats); empty: off
+  // sinks.plots: off by default. When on, PNG plots of chosen frames and of the run go to plots.dir from
+  // the plot sink's own thread (rate-limited, dropped when behind, never blocking).
+  bool plots_enabled = false;
+  PlotConfig plots = [] {
+    PlotConfig p;
+    p.min_interval_s = 5.0;
+    p.series_period_s = 60.0;
+    return p;
+  }();
 };
 
 struct LoggingConfig {
@@ -47,6 +56,9 @@ struct RutdConfig {
   int synthetic_cycle_frames = 0;
   ReplaySourceConfig replay;
   AravisSourceConfig aravis;
+  // source.record: a recording tee. The source's raw pairs are also recorded into this new folder
+  // (DESIGN.md Formats) on their way to the pipeline; empty: off.
+  std::string record;
   std::string calibration;  // calibration file; synthetic and replay sources bring their own
   MeasurerConfig measurement;
   CanIdConfig can;
@@ -55,20 +67,12 @@ struct RutdConfig {
   // in Stage order; entries past the last stage are ignored) and realtime_priority (SCHED_FIFO of every
   // stage thread) land in max_frame_age, status_period and threads. The daemon sets the rest.
   PipelineConfig pipeline;
-  // The `plots` section: off by default. When on, PNG plots of chosen frames and of the run go to
-  // plots.dir from the plot sink's own thread (rate-limited, dropped when behind, never blocking).
-  bool plots_enabled = false;
-  PlotConfig plots = [] {
-    PlotConfig p;
-    p.min_interval_s = 5.0;
-    p.series_period_s = 60.0;
-    return p;
-  }();
   LoggingConfig logging;
 };
 
 // Parses YAML text; `file` is used in messages. Throws InputError(file, "line N, KEY", message) for
-// unknown keys, wrong types, impossible values and contradictions.
+// unknown keys, wrong types, impossible values and contradictions, and for the keys of older releases,
+// naming the key that replaced them (kMovedKeys).
 RutdConfig parse_config(const std::string& yaml_text, const std::string& file);
 // Reads and parses a file; an unreadable file is an InputError too.
 RutdConfig load_config(const std::string& path);

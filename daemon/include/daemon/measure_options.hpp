@@ -13,11 +13,11 @@ struct MeasureOptions {
   std::string engine = "sgbm3way";
   bool no_dic = false;
   int strip_rows = 0;
-  int strip_row0 = -1;
+  std::string strip_first_row = "centred";  // or a rectified row number
 };
 
 void add_measure_options(CLI::App& cmd, MeasureOptions& options);
 // Turns parsed options into a MeasurerConfig; throws CLI::ValidationError on contradictory values.
-MeasurerConfig resolve_measure_options(const MeasureOptions& options, cv::Size image_size);
+MeasurerConfig resolve_measure_options(const MeasureOptions& options);
 
 }  // namespace rutd

@@ -26,6 +26,12 @@
 
 namespace rutd {
 
+// The strip of rectified rows measured (DESIGN.md §2).
+struct StripConfig {
+  int rows = 0;                  // 0: default_strip()'s, a tenth of the image height (20..64)
+  std::optional<int> first_row;  // the strip's first rectified row; std::nullopt: centred in the image
+};
+
 struct MeasurerConfig {
   // The default: with DIC every engine gives the same depth on rendered ruts (within 0.01 mm), so the
   // choice rests on real images, where SGBM_3WAY has the lowest bad-1.0 of the full-coverage engines on
@@ -33,8 +39,7 @@ struct MeasurerConfig {
   // SGBM mode.
   EngineKind engine = EngineKind::Sgbm3Way;
   EngineConfig engine_config;
-  // Strip of rectified rows to measure. rows == 0: default_strip(); row0 < 0: centred.
-  StripRoi strip;
+  StripConfig strip;
   // Plausible camera-to-terrain distances. The band is found per frame inside it (estimate_band) unless
   // fixed_band is set.
   WorkingRange range;
@@ -140,6 +145,8 @@ class StereoMeasurer {
 
   const StereoGeometry& geometry() const { return geometry_; }
   const MeasurerConfig& config() const { return config_; }
+  // The rectified rows measured, config().strip resolved for the image size.
+  StripRoi strip() const { return strip_; }
 
  private:
   // Engine (or, with reuse, the last frame's disparity) and DIC in w.diag.band.
@@ -157,6 +164,7 @@ class StereoMeasurer {
   bool device_rectifies(const StereoFrame& frame) const;
 
   MeasurerConfig config_;
+  StripRoi strip_;
   cv::Size image_size_;
   StereoGeometry geometry_;
   // Scratch of measure().
