@@ -19,6 +19,7 @@
 
 #include <fmt/format.h>
 
+#include "daemon/bench_scenes.hpp"
 #include "daemon/bench_tables.hpp"
 #include "daemon/commands.hpp"
 #include "daemon/dimensions.hpp"
@@ -156,12 +157,12 @@ void add_bench_command(CLI::App& app, int& exit_code) {
   CLI::App* cmd = app.add_subcommand(
       "bench",
       "Print the pipeline's rate and latency on synthetic pairs; --tables: the seed paper's Tables 1-3; --pair: every "
-      "engine on a rectified pair with ground truth");
+      "engine on a rectified pair with ground truth; --scenes: the scene matrix's outcomes against the truth");
   cmd->add_option("--seconds", o->seconds, "Length of each run")->check(CLI::Range(0.5, 600.0))->capture_default_str();
   cmd->add_option("--fps", o->fps, "Camera rate of the live runs")
       ->check(CLI::Range(1.0, 1000.0))
       ->capture_default_str();
-  cmd->add_option("--frames", o->frames, "Distinct pairs rendered and cycled")
+  cmd->add_option("--frames", o->frames, "Distinct pairs rendered and cycled (--scenes: pairs per scene)")
       ->check(CLI::Range(1, 100))
       ->capture_default_str();
   cmd->add_option("--engine", o->engine, "Disparity engine")
@@ -196,9 +197,23 @@ void add_bench_command(CLI::App& app, int& exit_code) {
   cmd->add_option("--dmax", pair->dmax, "Largest disparity searched (default: from the ground truth)");
   pair_opt->needs(gt_opt);
   gt_opt->needs(pair_opt);
-  cmd->callback([o, no_dic, tables, pair, table_list, pair_files, engines, &exit_code] {
+  // The scene matrix (bench_scenes.cpp): water, faults on the lenses, clean scenes, skewed pairs.
+  auto scenes = std::make_shared<BenchScenesOptions>();
+  auto run_scenes = std::make_shared<bool>(false);
+  CLI::Option* scenes_flag = cmd->add_flag("--scenes", *run_scenes,
+                                           "Measure the scene matrix instead (spoiled, clean and skewed synthetic "
+                                           "scenes) and print the scene x outcome table against the truth");
+  cmd->add_option("--only", scenes->only, "--scenes: only the scenes whose name matches this regular expression")
+      ->needs(scenes_flag);
+  cmd->callback([o, no_dic, tables, pair, table_list, pair_files, engines, scenes, run_scenes, &exit_code] {
     o->dic = !*no_dic;
-    if (!pair_files->empty()) {
+    if (*run_scenes) {
+      scenes->frames = o->frames;
+      scenes->engine = o->engine;
+      scenes->dic = o->dic;
+      scenes->json = o->json;
+      exit_code = run_bench_scenes(*scenes);
+    } else if (!pair_files->empty()) {
       pair->left = (*pair_files)[0];
       pair->right = (*pair_files)[1];
       pair->json = o->json;

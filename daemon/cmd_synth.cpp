@@ -31,12 +31,18 @@ int run_synth(const SynthOptions& o) {
   ProgressLine progress("synth", o.frames);
   for (std::uint64_t i = 0; i < o.frames; ++i) {
     progress.update(i);
-    renderer.render(i, frame);
+    const CameraSettings used = renderer.render(i, frame);
     if (!writer.append(frame)) {
       spdlog::error("{}", writer.error());
       return 1;
     }
-    truth.append(renderer.truth(i), frame.t_ns);
+    RutTruth t = renderer.truth(i);
+    t.exposure = used.exposure;  // auto exposure's choice for this pair
+    t.gain = used.gain;
+    if (!truth.append(t, frame.t_ns)) {
+      spdlog::error("{}: cannot write the truth of pair {}", (std::filesystem::path(o.dir) / "truth.csv").string(), i);
+      return 1;
+    }
   }
   const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   progress.clear();

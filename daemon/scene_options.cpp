@@ -36,6 +36,55 @@ std::vector<std::pair<std::uint64_t, double>> parse_profile(const std::string& t
   return knots;
 }
 
+// The cameras' exposure: manual or auto, the pair's mismatch, free-running exposures, the light.
+void add_camera_options(CLI::App& cmd, SyntheticRendererConfig& p) {
+  const std::string camera = "Camera";
+  cmd.add_option("--exposure", p.exposure,
+                 "Exposure: radiance 1 maps to EXPOSURE x full scale at gain 1 (0.05: dark, 4: saturated)")
+      ->check(CLI::Range(0.001, 100.0))
+      ->capture_default_str()
+      ->group(camera);
+  CLI::Option* gain = cmd.add_option("--gain", p.gain, "Analog gain: amplifies the signal, shot and read noise alike")
+                          ->check(CLI::Range(1.0, 256.0))
+                          ->capture_default_str()
+                          ->group(camera);
+  cmd.add_option("--light", p.light,
+                 "Scene illuminance relative to daylight (dusk 0.05): every radiance, sky and sun scale by it")
+      ->check(CLI::Range(1e-4, 100.0))
+      ->capture_default_str()
+      ->group(camera);
+  AutoExposureConfig& ae = p.auto_exposure;
+  cmd.add_flag("--auto-exposure", ae.enabled,
+               "Hold the left image's median grey level at --ae-target by exposure (up to --max-exposure), then "
+               "gain (up to --max-gain); the right camera takes the same settings")
+      ->excludes(gain)
+      ->group(camera);
+  cmd.add_option("--ae-target", ae.target, "Auto exposure's median grey level, fraction of full scale")
+      ->check(CLI::Range(0.01, 0.99))
+      ->capture_default_str()
+      ->group(camera);
+  cmd.add_option("--max-exposure", ae.max_exposure,
+                 "Longest exposure auto exposure may use (what the vehicle's motion allows), units of --exposure")
+      ->check(CLI::Range(0.001, 100.0))
+      ->capture_default_str()
+      ->group(camera);
+  cmd.add_option("--max-gain", ae.max_gain, "Highest gain auto exposure may use")
+      ->check(CLI::Range(1.0, 256.0))
+      ->capture_default_str()
+      ->group(camera);
+  cmd.add_option("--right-response", p.right_response,
+                 "Right camera's response relative to the left's (1.04: the right image 4 % brighter)")
+      ->check(CLI::Range(0.7, 1.3))
+      ->capture_default_str()
+      ->group(camera);
+  cmd.add_option("--right-delay-ms", p.right_delay_ms,
+                 "Free-running cameras: the right exposure this many ms after the left (negative: before); the "
+                 "ground moves --speed x delay between them")
+      ->check(CLI::Range(-500.0, 500.0))
+      ->capture_default_str()
+      ->group(camera);
+}
+
 }  // namespace
 
 void add_scene_options(CLI::App& cmd, SceneOptions& o) {
@@ -117,49 +166,8 @@ void add_scene_options(CLI::App& cmd, SceneOptions& o) {
       ->capture_default_str()
       ->group(scene);
   cmd.add_option("--seed", p.seed, "Random seed (texture and noise)")->capture_default_str()->group(scene);
-  cmd.add_option("--exposure", p.exposure,
-                 "Exposure: radiance 1 maps to EXPOSURE x full scale (0.05: dark, 4: saturated)")
-      ->check(CLI::Range(0.001, 100.0))
-      ->capture_default_str()
-      ->group(scene);
-  const std::string cond = "Conditions (README: Conditions rutd flags)";
-  SceneConditions& c = p.conditions;
-  cmd.add_option("--water-level", c.water_level_mm,
-                 "Still water in the rut up to this height above its bottom, mm (0: dry); flat and textureless")
-      ->check(CLI::Range(0.0, 500.0))
-      ->capture_default_str()
-      ->group(cond);
-  cmd.add_option("--splash", c.splash_fraction,
-                 "Opaque mud blob on one lens covering this fraction of the image width (1: lens fully covered)")
-      ->check(CLI::Range(0.0, 1.0))
-      ->capture_default_str()
-      ->group(cond);
-  cmd.add_option("--splash-camera", o.splash_camera, "The lens with the blob: left or right")
-      ->check(CLI::IsMember({"left", "right"}))
-      ->capture_default_str()
-      ->group(cond);
-  cmd.add_option("--splash-centre", c.splash_centre, "Centre of the blob, fraction of the image width")
-      ->check(CLI::Range(0.0, 1.0))
-      ->capture_default_str()
-      ->group(cond);
-  cmd.add_option("--grass-height", c.grass_height_mm, "Grass blades up to this tall outside the rut, mm (0: none)")
-      ->check(CLI::Range(0.0, 200.0))
-      ->capture_default_str()
-      ->group(cond);
-  cmd.add_option("--grass-spacing", c.grass_spacing_mm, "One blade per square of this side, mm")
-      ->check(CLI::Range(1.0, 100.0))
-      ->capture_default_str()
-      ->group(cond);
-  cmd.add_option("--right-pitch-error", c.right_pitch_error_deg,
-                 "Right camera turned about its x axis against the written calibration, degrees")
-      ->check(CLI::Range(-10.0, 10.0))
-      ->capture_default_str()
-      ->group(cond);
-  cmd.add_option("--right-roll-error", c.right_roll_error_deg,
-                 "Right camera turned about its optical axis against the written calibration, degrees")
-      ->check(CLI::Range(-10.0, 10.0))
-      ->capture_default_str()
-      ->group(cond);
+  add_camera_options(cmd, p);
+  add_condition_options(cmd, o);
 }
 
 SyntheticRendererConfig resolve_scene_options(const SceneOptions& o) {
@@ -167,11 +175,11 @@ SyntheticRendererConfig resolve_scene_options(const SceneOptions& o) {
   p.rig.image_size = parse_size(o.size);
   p.texture = *parse_texture(o.texture);  // IsMember above guarantees a known name
   if (!o.depth_profile.empty()) p.depth_profile = parse_profile(o.depth_profile);
-  p.conditions.splash_camera = o.splash_camera == "right" ? Camera::Right : Camera::Left;
-  if (p.conditions.water_level_mm > 0 && p.depth_profile.empty() && p.conditions.water_level_mm >= p.rut.depth_mm)
-    throw CLI::ValidationError("--water-level", "must be below --depth");
   if (p.rut.bottom_width_mm >= p.rut.width_mm)
     throw CLI::ValidationError("--bottom-width", "must be smaller than --width");
+  if (std::abs(p.right_delay_ms) * p.fps >= 1000)
+    throw CLI::ValidationError("--right-delay-ms", "must be shorter than a frame period (1000 / --fps ms)");
+  resolve_condition_options(o, p);
   return p;
 }
 

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <limits>
 #include <numbers>
 #include <stdexcept>
 #include <string>
@@ -11,6 +12,9 @@
 
 #include <opencv2/calib3d.hpp>
 #include <opencv2/core/utility.hpp>
+
+#include "lens_window.hpp"
+#include "water_optics.hpp"
 
 namespace rutd {
 namespace {
@@ -201,25 +205,29 @@ void validate_params(const SyntheticRendererConfig& p) {
   require(p.rig.height_mm - tilt > pile + tread + 10, "height_mm",
           "both cameras must be more than 10 mm above the highest pile");
   const SceneConditions& c = p.conditions;
-  for (double v : {c.water_level_mm, c.water_albedo, c.splash_fraction, c.splash_centre, c.grass_height_mm,
-                   c.grass_spacing_mm, c.right_pitch_error_deg, c.right_roll_error_deg}) {
-    require(std::isfinite(v), "conditions", "every value must be finite");
+  double min_depth = p.rut.depth_mm;
+  if (!p.depth_profile.empty()) {
+    min_depth = p.depth_profile.front().second;
+    for (const auto& knot : p.depth_profile) min_depth = std::min(min_depth, knot.second);
   }
-  require(c.water_level_mm >= 0, "water_level_mm", "must be >= 0");
-  if (c.water_level_mm > 0 && p.depth_profile.empty())
-    require(c.water_level_mm < p.rut.depth_mm, "water_level_mm", "must be below the rut depth");
-  require(c.water_albedo >= 0 && c.water_albedo <= 1, "water_albedo", "must be within [0, 1]");
-  require(c.splash_fraction >= 0, "splash_fraction", "must be >= 0");
-  require(c.splash_centre >= 0 && c.splash_centre <= 1, "splash_centre", "must be within [0, 1]");
-  require(c.grass_height_mm >= 0 && c.grass_height_mm <= 200, "grass_height_mm", "must be within [0, 200]");
-  require(c.grass_spacing_mm >= 1, "grass_spacing_mm", "must be >= 1");
+  validate(c, min_depth);
   require(p.rig.height_mm > pile + c.grass_height_mm + 10, "grass_height_mm",
           "grass must stay more than 10 mm below the cameras");
-  require(std::abs(c.right_pitch_error_deg) <= 10 && std::abs(c.right_roll_error_deg) <= 10, "right_*_error_deg",
-          "must be within [-10, 10]");
+  require(std::isfinite(p.gain) && p.gain >= 1, "gain", "must be >= 1");
+  require(std::isfinite(p.light) && p.light > 0, "light", "must be > 0");
+  const AutoExposureConfig& ae = p.auto_exposure;
+  require(std::isfinite(ae.target) && ae.target > 0 && ae.target < 1, "auto_exposure.target", "must be within (0, 1)");
+  require(std::isfinite(ae.max_exposure) && ae.max_exposure > 0, "auto_exposure.max_exposure", "must be > 0");
+  require(std::isfinite(ae.max_gain) && ae.max_gain >= 1, "auto_exposure.max_gain", "must be >= 1");
+  require(std::isfinite(p.right_response) && p.right_response > 0.5 && p.right_response < 2, "right_response",
+          "must be within (0.5, 2)");
+  require(std::isfinite(p.right_delay_ms) && std::abs(p.right_delay_ms) * p.fps < 1000, "right_delay_ms",
+          "must be shorter than a frame period");
 }
 
 }  // namespace
+
+void validate(const SyntheticRendererConfig& params) { validate_params(params); }
 
 // ---------------------------------------------------------------------------------------------------
 // Ray casting
@@ -415,8 +423,12 @@ SyntheticRenderer::SyntheticRenderer(const SyntheticRendererConfig& params)
   cv::stereoRectify(calibration_.M1, calibration_.D1, calibration_.M2, calibration_.D2, size, calibration_.R,
                     calibration_.T, R1, R2, P1, P2, Q, cv::CALIB_ZERO_DISPARITY);
   truth_rotation_ = cv::Matx33d(R1);
-  has_conditions_ = params_.conditions.water_level_mm > 0 || params_.conditions.grass_height_mm > 0;
-  sun_ = cv::normalize(cv::Vec3d(0.35, 0.25, 0.9));
+  const SceneConditions& conditions = params_.conditions;
+  sun_ = cv::normalize(conditions.sky.sun);
+  if (conditions.water.level_mm > 0)
+    water_ = std::make_shared<const WaterOptics>(conditions.water, conditions.sky, sun_, kAmbient, params_.seed);
+  window_[0] = LensWindow::make(conditions.lens, Camera::Left, left_.centres, left_.K(0, 0), params_.seed);
+  window_[1] = LensWindow::make(conditions.lens, Camera::Right, right_.centres, right_.K(0, 0), params_.seed);
 }
 
 // ---------------------------------------------------------------------------------------------------
@@ -433,7 +445,8 @@ double SyntheticRenderer::depth_mm(std::uint64_t index) const noexcept {
 cv::Matx33d SyntheticRenderer::camera_rotation(Camera camera) const { return model(camera).world_from_camera; }
 
 cv::Vec3d SyntheticRenderer::camera_centre(Camera camera, std::uint64_t index) const {
-  return cv::Vec3d(0, vehicle_y(index), params_.rig.height_mm) + model(camera).rig_offset;
+  const double delay_y = camera == Camera::Right ? params_.speed_mm_s * params_.right_delay_ms * 1e-3 : 0.0;
+  return cv::Vec3d(0, vehicle_y(index) + delay_y, params_.rig.height_mm) + model(camera).rig_offset;
 }
 
 namespace {
@@ -454,6 +467,11 @@ cv::Vec3d SyntheticRenderer::pixel_ray(Camera camera, int u, int v, double du, d
   return sample_ray(m.K, centre, distortion_jacobian(m.dist, centre).inv(), du, dv);
 }
 
+double SyntheticRenderer::lens_transmission(Camera camera, int u, int v) const {
+  const auto& window = window_[camera == Camera::Left ? 0 : 1];
+  return window ? window->transmission(u, v) : 1.0;
+}
+
 std::optional<cv::Vec3d> SyntheticRenderer::intersect_left(std::uint64_t index, const cv::Vec3d& dir) const {
   const RutTerrain terrain(params_.rut, depth_mm(index));
   const cv::Vec3d origin = camera_centre(Camera::Left, index);
@@ -472,30 +490,101 @@ std::vector<StereoFrame> SyntheticRenderer::render_pairs(std::size_t count) cons
   return pairs;
 }
 
-void SyntheticRenderer::render(std::uint64_t index, StereoFrame& out) const {
+CameraSettings SyntheticRenderer::render(std::uint64_t index, StereoFrame& out) const {
   const RutTerrain terrain(params_.rut, depth_mm(index));
+  const cv::Size size = params_.rig.image_size;
   const int type = params_.bit_depth == 16 ? CV_16UC1 : CV_8UC1;
-  out.left.create(params_.rig.image_size, type);
-  out.right.create(params_.rig.image_size, type);
-  const int rows = params_.rig.image_size.height;
-  const cv::Vec3d origins[2] = {camera_centre(Camera::Left, index), camera_centre(Camera::Right, index)};
+  out.left.create(size, type);
+  out.right.create(size, type);
+  // Radiance first, for the whole image: the window's faults mix neighbouring pixels and auto exposure
+  // meters the whole frame before the sensor turns radiance into grey levels.
+  thread_local cv::Mat scratch[3];
+  cv::Mat* radiance = scratch;  // the calling thread's: workers below see their own thread_locals
+  cv::Mat& filtered = scratch[2];
+  radiance[0].create(size, CV_64F);
+  radiance[1].create(size, CV_64F);
+  const double frame_time = static_cast<double>(index) / params_.fps;
+  const double delay = params_.right_delay_ms * 1e-3;
+  const double water_z =
+      water_ ? -terrain.shape().depth_mm + params_.conditions.water.level_mm : std::numeric_limits<double>::quiet_NaN();
+  const Exposure exposures[2] = {
+      {left_, terrain, camera_centre(Camera::Left, index), frame_time, vehicle_y(index), water_z},
+      {right_, terrain, camera_centre(Camera::Right, index), frame_time + delay,
+       vehicle_y(index) + params_.speed_mm_s * delay, water_z}};
+  const int rows = size.height;
   cv::parallel_for_(cv::Range(0, 2 * rows), [&](const cv::Range& range) {
     for (int r = range.start; r < range.end; ++r) {
-      const Camera camera = r < rows ? Camera::Left : Camera::Right;
-      const int row = r % rows;
-      render_row(camera, origins[r / rows], terrain, index, row, r < rows ? out.left : out.right);
+      render_row(exposures[r / rows], r % rows, radiance[r / rows].ptr<double>(r % rows));
     }
   });
+  for (int k = 0; k < 2; ++k) {
+    if (!window_[k]) continue;
+    window_[k]->apply(radiance[k], filtered);
+    std::swap(radiance[k], filtered);
+  }
+  const CameraSettings settings =
+      params_.auto_exposure.enabled ? settle_exposure(radiance[0]) : CameraSettings{params_.exposure, params_.gain};
+  expose(Camera::Left, index, radiance[0], settings, out.left);
+  expose(Camera::Right, index, radiance[1], settings, out.right);
   out.seq = index;
   out.t_ns = std::llround(static_cast<double>(index) * 1e9 / params_.fps);
   out.clock = ClockKind::Monotonic;
+  return settings;
 }
 
-float SyntheticRenderer::radiance(const cv::Vec3d& p, const cv::Vec2d& g, double footprint_mm) const noexcept {
+CameraSettings SyntheticRenderer::settle_exposure(const cv::Mat& left_radiance) const {
+  // The grey level at gain 1 and exposure 1 is 255 light L: the median is held at target by exposure,
+  // then gain.
+  thread_local std::vector<double> values;
+  values.assign(left_radiance.begin<double>(), left_radiance.end<double>());
+  const auto mid = values.begin() + static_cast<long>(values.size() / 2);
+  std::nth_element(values.begin(), mid, values.end());
+  const AutoExposureConfig& ae = params_.auto_exposure;
+  const double needed = ae.target / std::max(params_.light * *mid, 1e-9);  // exposure x gain
+  CameraSettings s;
+  s.exposure = std::min(needed, ae.max_exposure);
+  s.gain = std::clamp(needed / s.exposure, 1.0, ae.max_gain);
+  return s;
+}
+
+void SyntheticRenderer::expose(Camera camera, std::uint64_t index, const cv::Mat& radiance, CameraSettings settings,
+                               cv::Mat& image) const {
+  const double response = camera == Camera::Right ? params_.right_response : 1.0;
+  const double scale = 255.0 * settings.exposure * params_.light * response;  // grey levels at gain 1
+  const double gain = settings.gain;
+  const double read_var = params_.noise_sigma * params_.noise_sigma;
+  const double shot_gain = params_.full_well_e > 0 ? 255.0 / params_.full_well_e : 0.0;
+  const bool noisy = read_var > 0 || shot_gain > 0;
+  cv::parallel_for_(cv::Range(0, image.rows), [&](const cv::Range& range) {
+    for (int row = range.start; row < range.end; ++row) {
+      Gaussian gauss(row_seed(params_.seed, index, camera, row));
+      const double* in = radiance.ptr<double>(row);
+      for (int u = 0; u < image.cols; ++u) {
+        double signal = scale * in[u];  // grey levels of the 8-bit scale at gain 1
+        if (noisy) signal += std::sqrt(read_var + shot_gain * std::max(signal, 0.0)) * gauss();
+        if (gain != 1) signal *= gain;
+        if (image.depth() == CV_8U) {
+          image.ptr<std::uint8_t>(row)[u] = cv::saturate_cast<std::uint8_t>(signal);
+        } else {
+          image.ptr<std::uint16_t>(row)[u] = cv::saturate_cast<std::uint16_t>(signal * 257.0);
+        }
+      }
+    }
+  });
+}
+
+double SyntheticRenderer::radiance(const cv::Vec3d& p, const cv::Vec2d& g, double footprint_mm,
+                                   double water_z) const noexcept {
   const double cosine = (-g[0] * sun_[0] - g[1] * sun_[1] + sun_[2]) / std::sqrt(1 + g.dot(g));
   const double light = kAmbient + (1 - kAmbient) * std::max(0.0, cosine);
   const float albedo = params_.band_limit ? texture_.albedo(p, footprint_mm) : texture_.albedo(p);
-  return static_cast<float>(light) * albedo;
+  const double dry = static_cast<float>(light) * albedo;
+  if (!water_) return dry;
+  // Wet soil: under the water, and over the capillary fringe above it, fading out at its top.
+  const WaterConfig& w = water_->config();
+  if (!(p[2] < water_z + w.wet_fringe_mm)) return dry;
+  const double up = w.wet_fringe_mm > 0 ? std::clamp((p[2] - water_z) / w.wet_fringe_mm, 0.0, 1.0) : 1.0;
+  return dry * (w.wet_albedo_factor + (1 - w.wet_albedo_factor) * up);
 }
 
 namespace {
@@ -513,8 +602,44 @@ double sample_footprint(const cv::Vec3d& d, double t, const cv::Vec3d& n, const 
 
 }  // namespace
 
-double SyntheticRenderer::pixel_radiance(const CameraModel& m, const cv::Vec3d& origin, const RutTerrain& terrain,
-                                         const cv::Vec2d& centre, int n, double& t_centre) const noexcept {
+double SyntheticRenderer::sample_radiance(const Exposure& e, const cv::Vec3d& dir, const cv::Vec3d& dd_u,
+                                          const cv::Vec3d& dd_v, double& t, SampleKind& kind) const noexcept {
+  const RutTerrain& terrain = e.terrain;
+  t = cast_ray(terrain, e.origin, dir);
+  // The water's surface, where the ray meets it before the terrain: it lies over the pool there.
+  double t_water = -1;
+  if (water_ && dir[2] < 0) {
+    const double t_plane = (e.water_z - e.origin[2]) / dir[2];
+    if (t_plane > 0 && (t <= 0 || t_plane < t)) t_water = t_plane;
+  }
+  if (params_.conditions.grass_height_mm > 0) {
+    const double blade = blade_radiance(terrain, e.origin, dir, t_water > 0 ? t_water : t);
+    if (blade >= 0) {
+      kind = SampleKind::Blade;
+      return blade;
+    }
+  }
+  if (t_water > 0) {
+    kind = SampleKind::Water;
+    const double spread = std::max(cv::norm(dd_u), cv::norm(dd_v)) / cv::norm(dir);
+    const WaterOptics::Ray ray{
+        e.origin, dir,      t_water, sample_footprint(dir, t_water, cv::Vec3d(0, 0, 1), dd_u, dd_v),
+        spread,   e.time_s, e.rig_y};
+    return water_->radiance(terrain, e.water_z, ray, texture_, params_.band_limit);
+  }
+  if (t <= 0) {
+    kind = SampleKind::Nothing;
+    return 0;
+  }
+  kind = SampleKind::Soil;
+  const cv::Vec3d p = e.origin + t * dir;
+  const cv::Vec2d g = terrain.gradient_fast(p[0], p[1]);
+  return radiance(p, g, sample_footprint(dir, t, cv::Vec3d(-g[0], -g[1], 1), dd_u, dd_v), e.water_z);
+}
+
+double SyntheticRenderer::pixel_radiance(const Exposure& e, const cv::Vec2d& centre, int n, double& t_centre,
+                                         SampleKind& kind) const noexcept {
+  const CameraModel& m = e.model;
   const cv::Matx22d inverse_jacobian = distortion_jacobian(m.dist, centre).inv();
   // World ray change per sample step (1/n pixel) along u and v, for the texture footprint.
   const cv::Vec2d step_u = inverse_jacobian * cv::Vec2d(1.0 / (n * m.K(0, 0)), 0);
@@ -523,77 +648,53 @@ double SyntheticRenderer::pixel_radiance(const CameraModel& m, const cv::Vec3d& 
   const cv::Vec3d dd_v = m.world_from_camera * cv::Vec3d(step_v[0], step_v[1], 0);
   double sum = 0;
   t_centre = -1;
+  kind = SampleKind::Nothing;
   for (int j = 0; j < n; ++j) {
     for (int i = 0; i < n; ++i) {
       const double du = (i + 0.5) / n - 0.5, dv = (j + 0.5) / n - 0.5;
       const cv::Vec3d dir = m.world_from_camera * sample_ray(m.K, centre, inverse_jacobian, du, dv);
-      const double t = cast_ray(terrain, origin, dir);
-      if (2 * i + 1 == n && 2 * j + 1 == n) t_centre = t * cv::norm(dir);
-      if (has_conditions_) {
-        const double covered = condition_radiance(terrain, origin, dir, t);
-        if (covered >= 0) {
-          sum += covered;
-          continue;
-        }
-      }
-      if (t <= 0) continue;
-      const cv::Vec3d p = origin + t * dir;
-      const cv::Vec2d g = terrain.gradient_fast(p[0], p[1]);
-      const double footprint = sample_footprint(dir, t, cv::Vec3d(-g[0], -g[1], 1), dd_u, dd_v);
-      sum += radiance(p, g, footprint);
+      double t = -1;
+      SampleKind seen = SampleKind::Nothing;
+      sum += sample_radiance(e, dir, dd_u, dd_v, t, seen);
+      if (2 * i + 1 == n && 2 * j + 1 == n) t_centre = t * cv::norm(dir), kind = seen;
     }
   }
   return sum / (n * n);
 }
 
-void SyntheticRenderer::render_row(Camera camera, const cv::Vec3d& origin, const RutTerrain& terrain,
-                                   std::uint64_t index, int row, cv::Mat& image) const {
-  const CameraModel& m = model(camera);
+void SyntheticRenderer::render_row(const Exposure& e, int row, double* out) const {
   const int n = params_.supersample;
   const int n_edge = n == 1 ? params_.edge_supersample : 1;
-  const double scale = 255.0 * params_.exposure;
-  const double read_var = params_.noise_sigma * params_.noise_sigma;
-  const double shot_gain = params_.full_well_e > 0 ? 255.0 / params_.full_well_e : 0.0;
-  const bool noisy = read_var > 0 || shot_gain > 0;
-  Gaussian gauss(row_seed(params_.seed, index, camera, row));
-  const cv::Vec2d* centres = m.centres.ptr<cv::Vec2d>(row);
-  const int cols = image.cols;
+  const cv::Vec2d* centres = e.model.centres.ptr<cv::Vec2d>(row);
+  const int cols = params_.rig.image_size.width;
   // A sliding window over the row: pixel u is finished once u + 1 is rendered, so its hit distance can
   // be compared with both neighbours'. A kink-free surface changes the hit distance smoothly from pixel
-  // to pixel; a jump (a silhouette, where a pile hides what lies behind it) is rendered again with
-  // n_edge x n_edge samples so the edge is anti-aliased.
+  // to pixel; a jump (a silhouette, where a pile hides what lies behind it), or a change of what is seen
+  // (the waterline, a blade), is rendered again with n_edge x n_edge samples so the edge is
+  // anti-aliased.
   double dist[3] = {-1, -1, -1}, value[3] = {0, 0, 0};  // previous, current, next pixel
-  value[2] = pixel_radiance(m, origin, terrain, centres[0], n, dist[2]);
+  SampleKind kind[3] = {SampleKind::Nothing, SampleKind::Nothing, SampleKind::Nothing};
+  value[2] = pixel_radiance(e, centres[0], n, dist[2], kind[2]);
   for (int u = 0; u < cols; ++u) {
-    dist[0] = dist[1], value[0] = value[1];
-    dist[1] = dist[2], value[1] = value[2];
-    if (u + 1 < cols) value[2] = pixel_radiance(m, origin, terrain, centres[u + 1], n, dist[2]);
+    dist[0] = dist[1], value[0] = value[1], kind[0] = kind[1];
+    dist[1] = dist[2], value[1] = value[2], kind[1] = kind[2];
+    if (u + 1 < cols) value[2] = pixel_radiance(e, centres[u + 1], n, dist[2], kind[2]);
     double mean = value[1];
     if (n_edge > 1 && u > 0 && u + 1 < cols) {
       const int misses = (dist[0] < 0) + (dist[1] < 0) + (dist[2] < 0);  // rays above the horizon
-      if (misses == 0 ? std::abs(dist[2] - 2 * dist[1] + dist[0]) > kEdgeJumpMm : misses < 3) {
+      const bool jump = misses == 0 ? std::abs(dist[2] - 2 * dist[1] + dist[0]) > kEdgeJumpMm : misses < 3;
+      if (jump || kind[0] != kind[1] || kind[2] != kind[1]) {
         double unused = 0;
-        mean = pixel_radiance(m, origin, terrain, centres[u], n_edge, unused);
+        SampleKind ignored = SampleKind::Nothing;
+        mean = pixel_radiance(e, centres[u], n_edge, unused, ignored);
       }
     }
-    if (params_.conditions.splash_fraction > 0) {
-      // Out-of-focus mud on the lens: dark, with only a slow variation of its own.
-      const double alpha = splash_alpha(camera, u, row);
-      const double mud = 0.08 + 0.02 * std::cos(u / 37.0) * std::cos(row / 23.0);
-      mean = alpha * mud + (1 - alpha) * mean;
-    }
-    double signal = scale * mean;  // grey levels of the 8-bit scale
-    if (noisy) signal += std::sqrt(read_var + shot_gain * std::max(signal, 0.0)) * gauss();
-    if (image.depth() == CV_8U) {
-      image.ptr<std::uint8_t>(row)[u] = cv::saturate_cast<std::uint8_t>(signal);
-    } else {
-      image.ptr<std::uint16_t>(row)[u] = cv::saturate_cast<std::uint16_t>(signal * 257.0);
-    }
+    out[u] = mean;
   }
 }
 
 // ---------------------------------------------------------------------------------------------------
-// Scene conditions
+// Grass
 
 namespace {
 
@@ -601,21 +702,10 @@ double unit_draw(std::uint64_t& state) { return static_cast<double>(splitmix64(s
 
 }  // namespace
 
-double SyntheticRenderer::condition_radiance(const RutTerrain& terrain, const cv::Vec3d& o, const cv::Vec3d& d,
-                                             double t) const noexcept {
+double SyntheticRenderer::blade_radiance(const RutTerrain& terrain, const cv::Vec3d& o, const cv::Vec3d& d,
+                                         double t) const noexcept {
   const SceneConditions& c = params_.conditions;
   if (!(d[2] < 0)) return -1;
-  if (c.water_level_mm > 0 && t > 0) {
-    // The ray's first terrain hit lies below the water plane: it crossed the plane where the terrain is
-    // lower still, i.e. over the pool, so it sees the surface there.
-    const double z_water = -terrain.shape().depth_mm + c.water_level_mm;
-    if (o[2] + t * d[2] < z_water) {
-      const cv::Vec3d view = -cv::normalize(d);
-      const double fresnel = 0.02 + 0.98 * std::pow(1 - view[2], 5);  // Schlick, n = 1.33
-      const double sky = 0.6 + 0.4 * view[2];                         // the reflected ray's elevation equals the view's
-      return c.water_albedo * (kAmbient + (1 - kAmbient) * sun_[2]) + fresnel * sky;
-    }
-  }
   if (c.grass_height_mm <= 0) return -1;
   // Blades: one per cell, a leaning cylinder from the terrain up; the nearest one the ray passes within
   // its radius, in front of the terrain hit, is seen.
@@ -659,18 +749,6 @@ double SyntheticRenderer::condition_radiance(const RutTerrain& terrain, const cv
   return best;
 }
 
-double SyntheticRenderer::splash_alpha(Camera camera, int u, int v) const noexcept {
-  const SceneConditions& c = params_.conditions;
-  if (camera != c.splash_camera || c.splash_fraction <= 0) return 0;
-  if (c.splash_fraction >= 1) return 1;
-  const cv::Size size = params_.rig.image_size;
-  const double a = 0.5 * c.splash_fraction * size.width;  // half-width, px
-  const double b = std::max(a, 0.3 * size.height);        // tall enough to cover the strip
-  const double x = (u - c.splash_centre * (size.width - 1)) / a, y = (v - 0.5 * (size.height - 1)) / b;
-  const double r = std::sqrt(x * x + y * y);
-  return std::clamp(0.5 + (1 - r) * a / 6.0, 0.0, 1.0);  // edge blurred over about 6 px
-}
-
 // ---------------------------------------------------------------------------------------------------
 // Ground truth
 
@@ -684,22 +762,29 @@ RutTruth SyntheticRenderer::truth(std::uint64_t index) const {
   // Ground z = 0 in the plane Y = 0: centre + X a + Z b with z = 0 gives Z = m X + c.
   const double m = -a[2] / b[2], c = -centre[2] / b[2];
   const cv::Vec3d along = a + m * b;  // world displacement per unit X along the ground line
+  // Points of the plane Y = 0 at world height z: centre + X a + Z b with Z = m_z X + c_z.
+  const auto level_point = [&](double X, double z) {
+    return centre + X * a + (((z - centre[2]) - a[2] * X) / b[2]) * b;
+  };
   const auto ground_point = [&](double X) { return centre + X * a + (m * X + c) * b; };
-  const auto s_at = [&](double X) {
-    const cv::Vec3d p = ground_point(X);
+  const auto s_at = [&](double X, double z) {
+    const cv::Vec3d p = z == 0 ? ground_point(X) : level_point(X, z);
     return p[0] - terrain.centreline_x(p[1]);
   };
-  const auto crossing = [&](double s_target) {
-    double X = (s_target - s_at(0)) / along[0];
+  // X where the line of height z in the plane crosses lateral distance s_target from the centreline.
+  const auto crossing_at = [&](double s_target, double z) {
+    const double dx = z == 0 ? along[0] : level_point(1, z)[0] - level_point(0, z)[0];
+    double X = (s_target - s_at(0, z)) / dx;
     for (int i = 0; i < 60; ++i) {  // Newton; s is linear in X unless the rut wanders
       const double h = 1e-3;
-      const double slope = (s_at(X + h) - s_at(X - h)) / (2 * h);
-      const double step = (s_at(X) - s_target) / slope;
+      const double slope = (s_at(X + h, z) - s_at(X - h, z)) / (2 * h);
+      const double step = (s_at(X, z) - s_target) / slope;
       X -= step;
       if (std::abs(step) < 1e-12) break;
     }
     return X;
   };
+  const auto crossing = [&](double s_target) { return crossing_at(s_target, 0.0); };
   const double x_minus = crossing(-shape.width_mm / 2), x_plus = crossing(shape.width_mm / 2);
   const double k = 1.0 / std::sqrt(a[2] * a[2] + b[2] * b[2]);  // world height -> height above the line
   const double stretch = std::sqrt(1 + m * m);                  // length along the line per unit X
@@ -721,7 +806,7 @@ RutTruth SyntheticRenderer::truth(std::uint64_t index) const {
     double sum = 0;
     for (int i = 0; i <= kIntervals; ++i) {
       const double w = (i == 0 || i == kIntervals) ? 1 : (i % 2 ? 4 : 2);
-      sum += w * -terrain.profile(s_at(lo + i * h));
+      sum += w * -terrain.profile(s_at(lo + i * h, 0.0));
     }
     t.area_mm2 = sum * h / 3 * k * stretch;
   }
@@ -729,6 +814,21 @@ RutTruth SyntheticRenderer::truth(std::uint64_t index) const {
   t.center_x_mm = (x_minus + x_plus) / 2;
   t.tread_depth_mm = shape.tread ? shape.tread_depth_mm * k : 0.0;
   t.y_mm = vehicle_y(index);
+  const double level = params_.conditions.water.level_mm;
+  if (level > 0) {
+    // The surface meets each wall where -D (1 + cos(pi u)) / 2 = level - D, u across the wall.
+    const double u = std::acos(1 - 2 * level / shape.depth_mm) / kPi;
+    const double s = shape.bottom_width_mm / 2 + u * (shape.width_mm - shape.bottom_width_mm) / 2;
+    const double z = level - shape.depth_mm;
+    const double x_a = crossing_at(-s, z), x_b = crossing_at(s, z);
+    t.water_depth_mm = level * k;
+    t.waterline_depth_mm = (shape.depth_mm - level) * k;
+    t.waterline_left_x_mm = std::min(x_a, x_b);
+    t.waterline_right_x_mm = std::max(x_a, x_b);
+  }
+  t.right_delay_ns = std::llround(params_.right_delay_ms * 1e6);
+  t.exposure = params_.exposure;
+  t.gain = params_.gain;
   return t;
 }
 

@@ -166,6 +166,77 @@ TEST(SyntheticTruth, MatchesRayCastCrossSectionOfAWanderingRut) {
   expect_truth_matches_cross_section(p, 2);  // y = 200 mm: the centreline crosses at a slant
 }
 
+// The water's truth against the cross-section ray casting sees: where it crosses the water's world
+// height, and how far below the ground line (fitted to far ground, as measure_cross_section does) that is.
+void expect_waterline_matches_cross_section(const SyntheticRendererConfig& p, std::uint64_t index) {
+  const SyntheticRenderer renderer(p);
+  const RutTruth t = renderer.truth(index);
+  const cv::Matx33d R1 = renderer.truth_rotation();
+  const cv::Matx33d world_from_left = renderer.camera_rotation(Camera::Left);
+  const cv::Vec3d centre = renderer.camera_centre(Camera::Left, index);
+  const double z_water = p.conditions.water.level_mm - renderer.depth_mm(index);
+  std::vector<cv::Vec3d> pts;  // truth frame
+  std::vector<double> world_z;
+  for (double x = -0.7; x <= 0.7; x += 0.0001) {
+    const auto hit = renderer.intersect_left(index, R1.t() * cv::Vec3d(x, 0, 1));
+    if (!hit) continue;
+    pts.push_back(R1 * *hit);
+    world_z.push_back((world_from_left * *hit + centre)[2]);
+  }
+  std::vector<double> crossings;
+  for (std::size_t i = 1; i < pts.size(); ++i) {
+    if ((world_z[i - 1] < z_water) != (world_z[i] < z_water)) {
+      const double u = (z_water - world_z[i - 1]) / (world_z[i] - world_z[i - 1]);
+      crossings.push_back(pts[i - 1][0] + u * (pts[i][0] - pts[i - 1][0]));
+    }
+  }
+  ASSERT_EQ(crossings.size(), 2u);
+  double sx = 0, sz = 0, sxx = 0, sxz = 0, n = 0;
+  const double ground_from = p.rut.width_mm / 2 + p.rut.pile_width_mm + 25;
+  for (const auto& q : pts) {
+    if (std::abs(q[0] - t.center_x_mm) < ground_from) continue;
+    sx += q[0], sz += q[2], sxx += q[0] * q[0], sxz += q[0] * q[2], n += 1;
+  }
+  const double m = (n * sxz - sx * sz) / (n * sxx - sx * sx), c = (sz - m * sx) / n;
+  // The waterline's points on the cross-section, interpolated at the crossings' X.
+  double below = 0;
+  for (double X : crossings) {
+    std::size_t i = 1;
+    while (pts[i][0] < X) ++i;
+    const double u = (X - pts[i - 1][0]) / (pts[i][0] - pts[i - 1][0]);
+    const double Z = pts[i - 1][2] + u * (pts[i][2] - pts[i - 1][2]);
+    below += 0.5 * (Z - m * X - c) / std::sqrt(1 + m * m);
+  }
+  std::printf("waterline truth X %.4f / %.4f depth below ground %.4f water %.4f; rays X %.4f / %.4f below %.4f\n",
+              t.waterline_left_x_mm, t.waterline_right_x_mm, t.waterline_depth_mm, t.water_depth_mm, crossings[0],
+              crossings[1], below);
+  EXPECT_NEAR(crossings[0], t.waterline_left_x_mm, 0.02);
+  EXPECT_NEAR(crossings[1], t.waterline_right_x_mm, 0.02);
+  EXPECT_NEAR(below, t.waterline_depth_mm, 0.01);
+  EXPECT_NEAR(t.water_depth_mm + t.waterline_depth_mm, t.depth_mm, 1e-9);
+}
+
+TEST(SyntheticTruth, WaterlineMatchesTheRayCastCrossSection) {
+  SyntheticRendererConfig p;
+  p.rig.image_size = {320, 240};
+  p.rig.roll_deg = 4;
+  p.rig.pitch_deg = 8;
+  p.rut.pile_left_mm = 8;
+  p.rut.pile_right_mm = 14;
+  p.rut.lateral_offset_mm = -15;
+  p.rut.width_mm = 160, p.rut.bottom_width_mm = 60, p.rut.depth_mm = 35, p.rut.pile_width_mm = 30;
+  p.conditions.water.level_mm = 12;
+  expect_waterline_matches_cross_section(p, 4);
+  p.rut.wander_amplitude_mm = 40;  // the centreline crosses the section at a slant
+  p.rut.wander_wavelength_mm = 900;
+  p.speed_mm_s = 3000;
+  p.conditions.water.level_mm = 25;
+  expect_waterline_matches_cross_section(p, 2);
+  p.conditions.water.level_mm = 0;
+  EXPECT_EQ(SyntheticRenderer(p).truth(2).water_depth_mm, 0);
+  EXPECT_TRUE(std::isnan(SyntheticRenderer(p).truth(2).waterline_left_x_mm));
+}
+
 TEST(SyntheticTruth, DepthFollowsThePiecewiseLinearProfile) {
   SyntheticRendererConfig p = aligned_params();
   p.depth_profile = {{10, 20}, {20, 40}, {30, 40}, {50, 10}};
@@ -202,8 +273,11 @@ class TruthCsv : public ::testing::Test {
 };
 
 TEST_F(TruthCsv, RoundTripsExactly) {
-  RutTruth a{7, 50.000123456789, 200.1, 12.5, 0.0, 7500.033333333333, -4.999999999, 30.25, 3.0, 233.33333333333334};
-  RutTruth b{18446744073709551615ull, 1e-300, 0.1, 1.0 / 3, 2.0 / 3, 1e12, 0.0, -1234.5678, 0.0, -5.0};
+  RutTruth a{7,   50.000123456789,    200.1, 12.5,  0.0,   7500.033333333333, -4.999999999, 30.25,
+             3.0, 233.33333333333334, 12.25, 37.75, -70.5, 130.125,           2500000,      0.8887166368888804,
+             1};
+  RutTruth b{18446744073709551615ull, 1e-300, 0.1, 1.0 / 3, 2.0 / 3, 1e12, 0.0, -1234.5678, 0.0, -5.0};  // dry
+  b.right_delay_ns = -16666667, b.exposure = 2, b.gain = 8.396;
   const std::string file = path("truth.csv");
   {
     TruthCsvWriter writer(file);
@@ -231,26 +305,62 @@ TEST_F(TruthCsv, RoundTripsExactly) {
     EXPECT_EQ(r.center_x_mm, e.center_x_mm);
     EXPECT_EQ(r.tread_depth_mm, e.tread_depth_mm);
     EXPECT_EQ(r.y_mm, e.y_mm);
+    EXPECT_EQ(r.water_depth_mm, e.water_depth_mm);
+    for (const auto& [read, written] : {std::pair{r.waterline_depth_mm, e.waterline_depth_mm},
+                                        {r.waterline_left_x_mm, e.waterline_left_x_mm},
+                                        {r.waterline_right_x_mm, e.waterline_right_x_mm}}) {
+      if (std::isnan(written)) {
+        EXPECT_TRUE(std::isnan(read));  // a dry rut has no waterline
+      } else {
+        EXPECT_EQ(read, written);
+      }
+    }
+    EXPECT_EQ(r.right_delay_ns, e.right_delay_ns);
+    EXPECT_EQ(r.exposure, e.exposure);
+    EXPECT_EQ(r.gain, e.gain);
   }
+}
+
+TEST_F(TruthCsv, ReadsFilesWrittenBeforeTheWaterAndCameraColumns) {
+  write(path("dry.csv"), std::string(kTruthCsvHeaderDry) + "\n4,5,50,200,12,12,7500,0,30,0,7.5\n");
+  const std::vector<RutTruth> rows = read_truth_csv(path("dry.csv"));
+  ASSERT_EQ(rows.size(), 1u);
+  EXPECT_EQ(rows[0].index, 4u);
+  EXPECT_EQ(rows[0].y_mm, 7.5);
+  EXPECT_EQ(rows[0].water_depth_mm, 0);
+  EXPECT_TRUE(std::isnan(rows[0].waterline_left_x_mm));
+  EXPECT_EQ(rows[0].right_delay_ns, 0);
+  EXPECT_EQ(rows[0].exposure, 1);
+  EXPECT_EQ(rows[0].gain, 1);
+  // One form per file: a line of the new form under the old header is an error.
+  write(path("mixed.csv"),
+        std::string(kTruthCsvHeaderDry) + "\n4,5,50,200,12,12,7500,0,30,0,7.5,0,nan,nan,nan,0,1,1\n");
+  expect_error(path("mixed.csv"), "line 2", "expected 11 fields, found 18");
 }
 
 TEST_F(TruthCsv, BadFilesNameFileAndLine) {
   const std::string header = std::string(kTruthCsvHeader) + "\n";
-  const std::string good = "0,0,50,200,12,12,7500,0,30,0,0\n";
+  const std::string tail = ",0,nan,nan,nan,0,1,1\n";  // dry, triggered cameras, exposure and gain 1
+  const std::string good = "0,0,50,200,12,12,7500,0,30,0,0" + tail;
   write(path("header.csv"), "index,t_ns,depth\n" + good);
   expect_error(path("header.csv"), "line 1", "header");
-  write(path("fields.csv"), header + good + "1,33,50,200,12,12,7500,0,30,0\n");
-  expect_error(path("fields.csv"), "line 3", "expected 11 fields, found 10");
-  write(path("number.csv"), header + "0,0,abc,200,12,12,7500,0,30,0,0\n");
+  write(path("fields.csv"), header + good + "1,33,50,200,12,12,7500,0,30,0,0,0,nan,nan,nan,0,1\n");
+  expect_error(path("fields.csv"), "line 3", "expected 18 fields, found 17");
+  write(path("number.csv"), header + "0,0,abc,200,12,12,7500,0,30,0,0" + tail);
   expect_error(path("number.csv"), "line 2", "depth_mm");
-  write(path("index.csv"), header + "-1,0,50,200,12,12,7500,0,30,0,0\n");
+  write(path("index.csv"), header + "-1,0,50,200,12,12,7500,0,30,0,0" + tail);
   expect_error(path("index.csv"), "line 2", "index");
-  write(path("trailing.csv"), header + "0,0,50,200,12,12,7500,0,30,0,0x\n");
+  write(path("trailing.csv"), header + "0,0,50,200,12,12,7500,0,30,0,0x" + tail);
   expect_error(path("trailing.csv"), "line 2", "y_mm");
+  write(path("delay.csv"), header + "0,0,50,200,12,12,7500,0,30,0,0,0,nan,nan,nan,1.5,1,1\n");
+  expect_error(path("delay.csv"), "line 2", "right_delay_ns");
+  write(path("gain.csv"), header + "0,0,50,200,12,12,7500,0,30,0,0,0,nan,nan,nan,0,1,1x\n");
+  expect_error(path("gain.csv"), "line 2", "gain");
   write(path("empty.csv"), "");
   expect_error(path("empty.csv"), "file", "empty");
   expect_error(path("missing.csv"), "file", "cannot open");
-  write(path("crlf.csv"), std::string(kTruthCsvHeader) + "\r\n" + "4,5,50,200,12,12,7500,0,30,0,0\r\n");
+  write(path("crlf.csv"),
+        std::string(kTruthCsvHeader) + "\r\n" + "4,5,50,200,12,12,7500,0,30,0,0,0,nan,nan,nan,0,1,1\r\n");
   EXPECT_EQ(read_truth_csv(path("crlf.csv")).at(0).index, 4u);
   EXPECT_THROW(TruthCsvWriter("/nonexistent-dir/truth.csv"), InputError);
 }
@@ -258,10 +368,11 @@ TEST_F(TruthCsv, BadFilesNameFileAndLine) {
 // Found by fuzzing: a CR (or any control byte) inside a field was quoted into the message as is, so the
 // error spanned two lines on a terminal and in the journal. It is written escaped.
 TEST_F(TruthCsv, ErrorQuotingABadFieldIsOneLine) {
-  write(path("cr.csv"), std::string(kTruthCsvHeader) + "\n0,0,50,200,12,12,75\r00,0,30,0,0\n");
+  write(path("cr.csv"), std::string(kTruthCsvHeader) + "\n0,0,50,200,12,12,75\r00,0,30,0,0,0,nan,nan,nan,0,1,1\n");
   expect_error(path("cr.csv"), "line 2", "field 'area_mm2': not a number: '75\\r00'");
-  write(path("bell.csv"), std::string(kTruthCsvHeader) + "\n0,0,50,200,12,12,7500,0,30,0,\a\x1b[2J\n");
-  expect_error(path("bell.csv"), "line 2", "field 'y_mm': not a number: '\\x07\\x1B[2J'");
+  write(path("bell.csv"),
+        std::string(kTruthCsvHeader) + "\n0,0,50,200,12,12,7500,0,30,0,0,0,nan,nan,nan,0,1,\a\x1b[2J\n");
+  expect_error(path("bell.csv"), "line 2", "field 'gain': not a number: '\\x07\\x1B[2J'");
 }
 
 }  // namespace

@@ -17,9 +17,13 @@
 // Each sample ray is intersected exactly with the height field (first hit, so a pile may occlude the
 // wall behind it; < 1e-5 mm; see cast_ray).  The solid texture is evaluated at the hit point, band-limited to
 // the sample spacing there (ray differentials on the tangent plane), and shaded (Lambert, fixed sun +
-// ambient); the box-filtered mean goes through the sensor model (exposure, shot and read noise from an
-// RNG seeded by seed, frame index, camera and row).
+// ambient). A ray that meets standing water first is shaded by the water's optics (reflection, a
+// refracted ray cast to the bottom, attenuation; synthetic/scene_conditions.hpp). The box-filtered
+// radiance of the whole image then passes the camera's protective window (faults on it, out of focus)
+// and the sensor model (exposure and gain, auto or set; shot and read noise from an RNG seeded by seed,
+// frame index, camera and row).
 #include <cstdint>
+#include <memory>
 #include <optional>
 #include <utility>
 #include <vector>
@@ -28,6 +32,7 @@
 
 #include "core/stereo_calibration.hpp"
 #include "core/stereo_frame.hpp"
+#include "synthetic/scene_conditions.hpp"
 #include "synthetic/synthetic_scene.hpp"
 
 namespace rutd {
@@ -53,31 +58,25 @@ struct RigConfig {
   double misalign_roll_deg = 0.2;
 };
 
-enum class Camera { Left, Right };
+class WaterOptics;  // private to drivers/synthetic
+class LensWindow;
 
-// Conditions that defeat stereo measurement, to show that rutd flags them (README, "Conditions"). All
-// off by default; none changes the ground truth (RutTruth describes the soil, which is what a
-// measurement must report or refuse).
-struct SceneConditions {
-  // > 0: still water fills the rut up to this height above its bottom, mm (below the rut's depth). Its
-  // surface is flat and textureless: murky water (uniform albedo water_albedo) plus the Fresnel
-  // reflection of a smooth sky, so it has no texture stereo could match.
-  double water_level_mm = 0;
-  double water_albedo = 0.3;
-  // > 0: an opaque out-of-focus blob (mud splash) on one lens covering this fraction of the image width
-  // across the measured strip (centred on splash_centre, a fraction of the width); >= 1: the lens is
-  // fully covered.
-  double splash_fraction = 0;
-  double splash_centre = 0.5;
-  Camera splash_camera = Camera::Left;
-  // > 0: grass blades up to this tall (mm) standing on the ground outside the rut opening, one per
-  // grass_spacing_mm square cell, each leaning and shaded by its own random draw (seed).
-  double grass_height_mm = 0;
-  double grass_spacing_mm = 6;
-  // The right camera rotated against the calibration the renderer writes (degrees, about its own x axis,
-  // i.e. pitch, which moves rows, and its z axis, roll): a calibration that no longer fits.
-  double right_pitch_error_deg = 0;
-  double right_roll_error_deg = 0;
+// Auto exposure as a machine-vision camera does it: the median grey level of the left image is held at
+// target (fraction of full scale) by the exposure first, up to max_exposure (the longest the vehicle's
+// motion allows), then by the analog gain up to max_gain; beyond that the image darkens. The right
+// camera takes the left's settings (one camera meters for the pair, as synchronised rigs do). The
+// median is metered on the frame itself, noise-free: a loop that has settled.
+struct AutoExposureConfig {
+  bool enabled = false;
+  double target = 0.4;      // (0, 1)
+  double max_exposure = 2;  // > 0, in the units of SyntheticRendererConfig::exposure
+  double max_gain = 16;     // >= 1 (24 dB)
+};
+
+// The exposure and gain a rendered pair was taken with.
+struct CameraSettings {
+  double exposure = 1;
+  double gain = 1;
 };
 
 struct SyntheticRendererConfig {
@@ -89,7 +88,20 @@ struct SyntheticRendererConfig {
   double noise_sigma = 1.5;    // read noise, grey levels of the 8-bit scale; 0 = none
   double full_well_e = 20000;  // electrons at full scale, sets the shot noise; 0 = no shot noise
   double exposure = 1.0;       // radiance 1 (white, facing the sun) maps to exposure * 255 grey levels
-                               // (under 1/8: a dark scene; several: saturated)
+                               // at gain 1 (under 1/8: a dark scene; several: saturated)
+  // Sensor: a pixel's grey level is gain * (signal + noise), signal = 255 * exposure * light * radiance
+  // (times right_response for the right camera), noise of variance noise_sigma^2 (read) + signal * 255 /
+  // full_well_e (shot): gain amplifies both, so the same grey level reached by gain instead of light
+  // is noisier.
+  double gain = 1.0;   // >= 1, analog gain (ignored when auto_exposure is on)
+  double light = 1.0;  // > 0: the scene's illuminance relative to daylight (dusk 0.05, night far less)
+  AutoExposureConfig auto_exposure;
+  // Right camera's response relative to the left's (quantum efficiency, lens transmission, vignetting):
+  // real pairs differ by a few percent; 1.04: the right image 4 % brighter.
+  double right_response = 1.0;
+  // Free-running cameras: the right exposure starts this long after the left's (negative: before), so
+  // at speed the ground has moved between the two; 0 = triggered together. |delay| < 1 / fps.
+  double right_delay_ms = 0;
   std::uint64_t seed = 1;      // texture and noise; same seed and frame index = same images
   DepthProfile depth_profile;  // (frame, depth_mm) knots; empty = rut.depth_mm for every frame
   // Samples per pixel side, 1..8 (box filter). Each sample sees the texture band-limited to the sample
@@ -106,8 +118,12 @@ struct SyntheticRendererConfig {
   SceneConditions conditions;
 };
 
+// Throws std::invalid_argument naming the field for impossible parameters: what SyntheticRenderer's
+// constructor checks, without building anything.
+void validate(const SyntheticRendererConfig& params);
+
 // Immutable after construction; all const members are thread-safe. render() allocates only when the
-// frame's buffers do not already have the right size and type.
+// frame's buffers, or its calling thread's scratch images, do not already have the right size and type.
 class SyntheticRenderer {
  public:
   // Throws std::invalid_argument naming the field for impossible parameters.
@@ -120,9 +136,10 @@ class SyntheticRenderer {
   const cv::Matx33d& truth_rotation() const noexcept { return truth_rotation_; }
 
   RutTruth truth(std::uint64_t index) const;
-  // Fills out.left/out.right (reusing their buffers), seq = index, t_ns = round(index * 1e9 / fps),
-  // clock = Monotonic.
-  void render(std::uint64_t index, StereoFrame& out) const;
+  // Fills out.left/out.right (reusing their buffers), seq = index, t_ns = round(index * 1e9 / fps) (the
+  // left exposure's time), clock = Monotonic. Returns the exposure and gain used (auto exposure's, or
+  // the configured ones). Keeps per-thread scratch of two floating-point images between calls.
+  CameraSettings render(std::uint64_t index, StereoFrame& out) const;
   // Pairs 0 .. count-1, as render() gives them: the short cycle a CyclingSource plays.
   std::vector<StereoFrame> render_pairs(std::size_t count) const;
 
@@ -134,7 +151,12 @@ class SyntheticRenderer {
   // (x, y, 1) in that camera's frame: projecting it with the camera's M and D gives (u + du, v + dv).
   cv::Vec3d pixel_ray(Camera camera, int u, int v, double du = 0, double dv = 0) const;
 
-  // World pose of a camera at frame `index`: X_world = rotation * X_camera + centre.
+  // Share of the scene's light that reaches raw pixel (u, v) of `camera` through its protective window
+  // undeflected, 0..1 (1: a clean window; SceneConditions::lens): an obstruction's truth, per pixel.
+  double lens_transmission(Camera camera, int u, int v) const;
+
+  // World pose of a camera at its exposure of frame `index`: X_world = rotation * X_camera + centre.
+  // The right camera's centre is where it was right_delay_ms after the left exposure.
   cv::Matx33d camera_rotation(Camera camera) const;
   cv::Vec3d camera_centre(Camera camera, std::uint64_t index) const;
   double vehicle_y(std::uint64_t index) const noexcept;
@@ -149,20 +171,38 @@ class SyntheticRenderer {
     cv::Mat centres;       // height x width CV_64FC2: undistorted normalised (x, y) of each pixel centre
   };
 
-  void render_row(Camera camera, const cv::Vec3d& origin, const RutTerrain& terrain, std::uint64_t index, int row,
-                  cv::Mat& image) const;
+  // One camera's exposure of one frame.
+  struct Exposure {
+    const CameraModel& model;
+    const RutTerrain& terrain;
+    cv::Vec3d origin;  // the camera centre, world mm
+    double time_s;     // exposure time since frame 0
+    double rig_y;      // world y of the rig midpoint then
+    double water_z;    // world z of the water surface; NaN: no water
+  };
+  // What a sample ray saw first; a pixel whose kind differs from a row neighbour's is supersampled.
+  enum class SampleKind : std::uint8_t { Nothing, Soil, Water, Blade };
+
+  // Radiance (before the sensor) of one row of one camera into `out` (width doubles).
+  void render_row(const Exposure& e, int row, double* out) const;
   // Mean radiance of n x n samples over the pixel whose undistorted centre is `centre`; t_centre: the
-  // distance (mm) to the centre sample's hit when n is odd (< 0: no hit), else -1.
-  double pixel_radiance(const CameraModel& m, const cv::Vec3d& origin, const RutTerrain& terrain,
-                        const cv::Vec2d& centre, int n, double& t_centre) const noexcept;
-  // Shaded albedo (0..1) at hit p with terrain gradient g, for samples footprint_mm apart there.
-  float radiance(const cv::Vec3d& p, const cv::Vec2d& g, double footprint_mm) const noexcept;
-  // SceneConditions: radiance of the water surface or of a grass blade on the ray origin + t dir (t:
-  // the terrain hit, < 0 none) when either is in front of the terrain; negative otherwise.
-  double condition_radiance(const RutTerrain& terrain, const cv::Vec3d& origin, const cv::Vec3d& dir,
-                            double t) const noexcept;
-  // SceneConditions: opacity 0..1 of the lens splash at raw pixel (u, v) of `camera`.
-  double splash_alpha(Camera camera, int u, int v) const noexcept;
+  // distance (mm) to the centre sample's terrain hit when n is odd (< 0: no hit), else -1; kind: what the
+  // centre sample saw.
+  double pixel_radiance(const Exposure& e, const cv::Vec2d& centre, int n, double& t_centre,
+                        SampleKind& kind) const noexcept;
+  // Radiance along one sample ray; dd_u, dd_v: the ray's change to the next sample along u and v.
+  double sample_radiance(const Exposure& e, const cv::Vec3d& dir, const cv::Vec3d& dd_u, const cv::Vec3d& dd_v,
+                         double& t, SampleKind& kind) const noexcept;
+  // Shaded albedo (0..1) of the soil at hit p with terrain gradient g, for samples footprint_mm apart
+  // there; wet below water_z and over the capillary fringe above it.
+  double radiance(const cv::Vec3d& p, const cv::Vec2d& g, double footprint_mm, double water_z) const noexcept;
+  // Radiance of the nearest grass blade on origin + t dir before t_limit, or negative for none.
+  double blade_radiance(const RutTerrain& terrain, const cv::Vec3d& origin, const cv::Vec3d& dir,
+                        double t_limit) const noexcept;
+  // The sensor: exposure, gain, response, noise and quantisation of one camera's radiance image.
+  void expose(Camera camera, std::uint64_t index, const cv::Mat& radiance, CameraSettings settings,
+              cv::Mat& image) const;
+  CameraSettings settle_exposure(const cv::Mat& left_radiance) const;
   const CameraModel& model(Camera camera) const noexcept { return camera == Camera::Left ? left_ : right_; }
 
   SyntheticRendererConfig params_;
@@ -170,8 +210,10 @@ class SyntheticRenderer {
   cv::Matx33d truth_rotation_;
   CameraModel left_, right_;
   SolidTexture texture_;
-  cv::Vec3d sun_;                // unit vector towards the sun, world frame
-  bool has_conditions_ = false;  // water or grass: condition_radiance() is asked per sample
+  cv::Vec3d sun_;  // unit vector towards the sun, world frame
+  // Immutable after construction, shared by copies. Null when the scene has no water / no window fault.
+  std::shared_ptr<const WaterOptics> water_;
+  std::shared_ptr<const LensWindow> window_[2];  // left, right
 };
 
 // First t > 0 where origin + t * dir meets the terrain (dir need not be unit; dir.z < 0 required for a

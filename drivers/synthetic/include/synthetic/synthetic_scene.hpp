@@ -14,6 +14,7 @@
 // so the profile crosses ground level exactly at |s| = W/2. Optional tread grooves run across the rut
 // bottom, periodic along y (see RutShape::tread).
 #include <cstdint>
+#include <limits>
 #include <optional>
 #include <string_view>
 #include <utility>
@@ -75,6 +76,21 @@ struct RutTruth {
   double center_x_mm = 0;       // X of the midpoint between the two crossings
   double tread_depth_mm = 0;    // how much deeper the groove floor is than depth_mm; 0 without tread
   double y_mm = 0;              // world y of the rig midpoint (distance travelled)
+  // Standing water (SceneConditions::water), in the same frame and with the same perpendicular heights:
+  // its depth over the rut's bottom (0: dry), how far its surface lies below the ground line, and the X
+  // of the two waterlines (where the surface meets the walls on the cross-section), smaller X first.
+  // The last three are NaN when dry. The surface is level in the world, so parallel to the ground line
+  // across the rut.
+  double water_depth_mm = 0;
+  double waterline_depth_mm = std::numeric_limits<double>::quiet_NaN();
+  double waterline_left_x_mm = std::numeric_limits<double>::quiet_NaN();
+  double waterline_right_x_mm = std::numeric_limits<double>::quiet_NaN();
+  // The cameras: how long after the left exposure the right one was taken (free-running cameras; 0 when
+  // triggered together), and the exposure and gain of the pair (SyntheticRendererConfig; auto exposure's
+  // choice is known only once the pair is rendered: SyntheticRenderer::render returns it).
+  std::int64_t right_delay_ns = 0;
+  double exposure = 1;
+  double gain = 1;
 };
 
 // cos(pi w) and sin(pi w) from the cubic Hermite table behind RutTerrain's *_fast functions: within

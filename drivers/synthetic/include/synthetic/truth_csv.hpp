@@ -1,8 +1,11 @@
 #pragma once
-// truth.csv: the ground truth of a synthetic recording, one line per stereo pair. Header:
+// truth.csv: the ground truth of a synthetic recording, one line per stereo pair (RutTruth). Header:
 //   index,t_ns,depth_mm,width_mm,left_pile_mm,right_pile_mm,area_mm2,ground_slope_deg,center_x_mm,
-//   tread_depth_mm,y_mm
-// (one line in the file). Numbers are written in the shortest form that reads back to the same double.
+//   tread_depth_mm,y_mm,water_depth_mm,waterline_depth_mm,waterline_left_x_mm,waterline_right_x_mm,
+//   right_delay_ns,exposure,gain
+// (one line in the file). Numbers are written in the shortest form that reads back to the same double;
+// a waterline of a dry rut is "nan". Files written before the water and camera columns (the first 11
+// columns only) are read too, with a dry rut, triggered cameras, exposure and gain 1.
 #include <cstdint>
 #include <fstream>
 #include <string>
@@ -14,6 +17,11 @@
 namespace rutd {
 
 inline constexpr std::string_view kTruthCsvHeader =
+    "index,t_ns,depth_mm,width_mm,left_pile_mm,right_pile_mm,area_mm2,ground_slope_deg,center_x_mm,"
+    "tread_depth_mm,y_mm,water_depth_mm,waterline_depth_mm,waterline_left_x_mm,waterline_right_x_mm,"
+    "right_delay_ns,exposure,gain";
+// The header of files written before the water and camera columns.
+inline constexpr std::string_view kTruthCsvHeaderDry =
     "index,t_ns,depth_mm,width_mm,left_pile_mm,right_pile_mm,area_mm2,ground_slope_deg,center_x_mm,"
     "tread_depth_mm,y_mm";
 

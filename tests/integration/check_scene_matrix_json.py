@@ -1,0 +1,91 @@
+#!/usr/bin/env python3
+"""Checks `rutd bench --scenes --json` with Python's own JSON decoder: one object per scene, every
+documented key with its type, and each scene's counts recomputed from its frames (OK within 1 mm of the
+truth, OK beyond, refused, refused with an expected condition, refusals by status), each frame's error
+against its own depth and truth, and the water's truth present exactly in water scenes.
+Usage: check_scene_matrix_json.py FILE SCENES FRAMES. Prints what it checked; exits 1 naming the first
+fault."""
+import json
+import math
+import sys
+
+SCENE_KEYS = {"scene": str, "group": str, "kind": str, "expect": list, "synth": str, "frames": int,
+              "ok_within_1mm": int, "ok_beyond_1mm": int, "refused": int, "refused_within_1mm": int,
+              "refused_with_expected": int,
+              "refusals": dict, "worst_ok_error_mm": (int, float), "texture_to_noise": (int, float),
+              "seconds": (int, float), "per_frame": list}
+FRAME_KEYS = {"index": int, "status": str, "depth_mm": (int, float), "truth_mm": (int, float),
+              "error_mm": (int, float), "uncertainty_mm": (int, float, type(None)), "conditions": list,
+              "water_depth_mm": (int, float), "waterline_depth_mm": (int, float, type(None)),
+              "exposure": (int, float), "gain": (int, float)}
+CONDITIONS = {"Water", "LeftLensObstructed", "RightLensObstructed", "LowLight", "Overexposed", "Vegetation",
+              "CalibrationDrift", "DepthUncertain"}
+
+
+def typed(obj, keys, where):
+    for key, kind in keys.items():
+        if key not in obj or not isinstance(obj[key], kind) or (kind == int and isinstance(obj[key], bool)):
+            return f"{where}: key {key} missing or not {kind}: {obj.get(key)!r}"
+    return None
+
+
+def check_scene(s, frames):
+    name = s.get("scene", "?")
+    fault = typed(s, SCENE_KEYS, name)
+    if fault:
+        return fault
+    if s["group"] not in ("spoiled", "clean", "tread", "skew"):
+        return f"{name}: group {s['group']}"
+    if s["frames"] != frames or len(s["per_frame"]) != frames:
+        return f"{name}: {s['frames']} frames, {len(s['per_frame'])} listed, want {frames}"
+    within = beyond = refused = refused_within = expected = 0
+    refusals = {}
+    water = "--water-level" in s["synth"]
+    for i, f in enumerate(s["per_frame"]):
+        fault = typed(f, FRAME_KEYS, f"{name} frame {i}")
+        if fault:
+            return fault
+        if f["index"] != i or not set(f["conditions"]) <= CONDITIONS:
+            return f"{name} frame {i}: index or conditions {f}"
+        if abs(f["error_mm"] - (f["depth_mm"] - f["truth_mm"])) > 2e-4:
+            return f"{name} frame {i}: error {f['error_mm']} is not depth - truth"
+        if water != (f["water_depth_mm"] > 0) or water != (f["waterline_depth_mm"] is not None):
+            return f"{name} frame {i}: water truth {f['water_depth_mm']}, {f['waterline_depth_mm']}"
+        if f["gain"] < 1 or f["exposure"] <= 0:
+            return f"{name} frame {i}: exposure {f['exposure']} gain {f['gain']}"
+        if f["status"] == "OK":
+            if abs(f["error_mm"]) <= 1.0:
+                within += 1
+            else:
+                beyond += 1
+        else:
+            refused += 1
+            refused_within += abs(f["error_mm"]) <= 1.0
+            refusals[f["status"]] = refusals.get(f["status"], 0) + 1
+            expected += bool(set(f["conditions"]) & set(s["expect"]))
+    got = (s["ok_within_1mm"], s["ok_beyond_1mm"], s["refused"], s["refused_within_1mm"], s["refused_with_expected"],
+           s["refusals"])
+    want = (within, beyond, refused, refused_within, expected, refusals)
+    if got != want:
+        return f"{name}: counts {got}, frames say {want}"
+    return None
+
+
+def main() -> int:
+    path, scenes, frames = sys.argv[1], int(sys.argv[2]), int(sys.argv[3])
+    with open(path, encoding="utf-8") as f:
+        lines = [line for line in f.read().split("\n") if line]
+    if len(lines) != scenes:
+        print(f"{len(lines)} JSON lines, want {scenes}")
+        return 1
+    for line in lines:
+        fault = check_scene(json.loads(line), frames)
+        if fault:
+            print(fault)
+            return 1
+    print(f"{scenes} scenes x {frames} frames: keys, types and counts agree with the frames")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,62 @@
+// `rutd bench --scenes` through the program: the scene matrix's JSON lines decoded by Python's json module
+// (not by us) with every scene's counts recomputed from its frames, the text table's rows, and a bad
+// --only refused naming the option. The matrix's outcomes are reported, not judged, here.
+#include <regex>
+#include <string>
+
+#include <gtest/gtest.h>
+
+#include "test_support.hpp"
+
+namespace rutd {
+namespace {
+
+// One scene of each group: clear water (published wrong today), a lens fault, a clean rut, a skewed pair.
+const std::string kOnly = "'^(water-clear-sand-25|lens-mud-left-sand|clean-manual-sand-16|skew-sand-00)$'";
+
+TEST(BenchScenes, JsonLinesCountEveryFrameAgainstTheTruth) {
+  test::TempDir dir;
+  const auto out = dir.path() / "scenes.jsonl";
+  const auto err = dir.path() / "scenes.err";
+  ASSERT_EQ(test::run_rutd("bench --scenes --only " + kOnly + " --frames 2 --json >" + test::quoted(out), err.string()),
+            0)
+      << test::read_text(err);
+  // The summary goes to stderr, so stdout is JSON only.
+  EXPECT_NE(test::read_text(err).find("false alarms"), std::string::npos) << test::read_text(err);
+  const std::string check = std::string("python3 ") + test::quoted(RUTD_SOURCE_DIR) +
+                            "/tests/integration/check_scene_matrix_json.py " + test::quoted(out) + " 4 2";
+  EXPECT_EQ(test::run_shell(check), 0) << test::read_text(out);
+}
+
+TEST(BenchScenes, TextTableHasARowPerSceneAndTheirSynthOptions) {
+  test::TempDir dir;
+  const auto out = dir.path() / "scenes.txt";
+  ASSERT_EQ(test::run_rutd("bench --scenes --only " + kOnly + " --frames 1 >" + test::quoted(out)), 0);
+  const std::string text = test::read_text(out);
+  // "NAME GROUP FRAMES OK<=1 OK>1 WORST T/N REF<=1 RIGHT-FLAG REFUSED"
+  const std::regex row(
+      "\\n([a-z0-9-]+) +(spoiled|clean|skew) +1 +([01]) +([01]) +([0-9.]+|-) +([0-9.]+) +([01]) +(\\d/\\d|-)  ");
+  int rows = 0;
+  for (std::sregex_iterator it(text.begin(), text.end(), row), end; it != end; ++it, ++rows) {
+    const std::smatch& m = *it;
+    EXPECT_LE(std::stoi(m[3]) + std::stoi(m[4]) + std::stoi(m[7]), 1) << m.str();
+    // Each scene's options follow the table, ready for rutd synth.
+    EXPECT_NE(text.find("\n" + m[1].str() + " "), text.rfind("\n" + m[1].str() + " ")) << m[1];
+  }
+  EXPECT_EQ(rows, 4) << text;
+  EXPECT_NE(text.find("--lens mud:left:"), std::string::npos);
+}
+
+TEST(BenchScenes, BadSelectionIsRefusedNamingTheOption) {
+  test::TempDir dir;
+  const auto err = dir.path() / "err";
+  EXPECT_NE(test::run_rutd("bench --scenes --only '(' >/dev/null", err.string()), 0);
+  EXPECT_NE(test::read_text(err).find("--only: not a regular expression"), std::string::npos) << test::read_text(err);
+  EXPECT_NE(test::run_rutd("bench --scenes --only no-such-scene >/dev/null", err.string()), 0);
+  EXPECT_NE(test::read_text(err).find("--only: selects no scene"), std::string::npos) << test::read_text(err);
+  EXPECT_NE(test::run_rutd("bench --only water >/dev/null", err.string()), 0);  // --only belongs to --scenes
+  EXPECT_NE(test::read_text(err).find("--scenes"), std::string::npos) << test::read_text(err);
+}
+
+}  // namespace
+}  // namespace rutd
