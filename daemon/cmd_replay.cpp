@@ -82,12 +82,15 @@ int run_replay(const ReplayOptions& o) {
     }
   }
 
-  spdlog::info("replaying {} with engine {}{}", o.dir, to_string(config.engine), config.dic ? " + DIC" : "");
   RunSummary summary;
   // The stages one after the other (StereoMeasurer::measure does the same), keeping the strip, the
   // disparity and the cross-section of each pair for the plots.
   FrameWork work;
   MatchContext context = measurer.make_match_context();
+  // Which device computes (the GPU engine's, or the CPU and why), again at the end if that changed.
+  const std::string device = context.engine->device();
+  spdlog::info("replaying {} with engine {}{} on {}", o.dir, to_string(config.engine), config.dic ? " + DIC" : "",
+               device);
   RutWorkspace rut_ws;
   StereoFrame& frame = work.frame;
   std::array<CanFrame, 2> frames{};
@@ -126,6 +129,8 @@ int run_replay(const ReplayOptions& o) {
     }
   }
   progress.clear();
+  if (context.engine->device() != device)
+    spdlog::warn("the engine left {} during the replay: now on {}", device, context.engine->device());
   if (plots) {
     const PlotSinkStats ps = plots->finish();
     spdlog::info("plots: {} files written to {} ({} pairs plotted)", ps.files_written, o.plots, ps.frames_plotted);

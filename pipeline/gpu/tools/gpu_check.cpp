@@ -12,8 +12,10 @@
 // maps that reach past the raw border: the strips must equal the reference's byte for byte, and the
 // stages after them are compared as above; the band estimate's coarse pass (submit_coarse: the strips
 // averaged over 1-4 columns and 2 rows, matched without DIC) must give the reference's coarse image and
-// coarse disparity exactly. Exit status: 0 all equal, 1 a difference, 2 usage, 77 no usable Vulkan
-// device (CTest's skip code). Needs only the Vulkan loader at run time.
+// coarse disparity exactly. Exit status: 0 all equal, 1 a difference or a device, shader or pipeline that
+// fails, 2 usage, 77 no Vulkan driver at all (CTest's skip code: no loader, or a loader that finds no
+// device; a driver whose devices cannot run the matcher is a failure). Needs only the Vulkan loader at run
+// time.
 //   rutd-gpu-check [--device NAME|INDEX] [--seed N] [--cases N] [--aggregate-threads N]
 // --aggregate-threads: the aggregation's workgroup size (VulkanSgm); several subgroups' worth checks its
 // shared-memory path.
@@ -161,6 +163,18 @@ int main(int argc, char** argv) {
   }
   list.resize(static_cast<std::size_t>(cases));
 
+  // Skipped only where no Vulkan driver exists; from here on any device error fails the check.
+  try {
+    if (list_gpu_devices().empty()) {
+      std::printf("SKIP: no Vulkan driver: the Vulkan loader finds no device\n");
+      return 77;
+    }
+  } catch (const GpuError& e) {
+    std::printf("SKIP: no Vulkan driver: %s\n", e.what());
+    return 77;
+  }
+  VulkanSgmOptions options;
+  options.aggregate_threads = aggregate_threads;
   std::unique_ptr<VulkanSgm> sgm;
   int failures = 0;
   for (std::size_t k = 0; k < list.size(); ++k) {
@@ -197,20 +211,15 @@ int main(int argc, char** argv) {
       columns.row_end = c.height;
     }
     try {
-      sgm = std::make_unique<VulkanSgm>(device, c.width, c.height, c.num_disparities, 0, aggregate_threads);
+      sgm = std::make_unique<VulkanSgm>(device, c.width, c.height, c.num_disparities, options);
     } catch (const GpuError& e) {
-      if (k == 0) {
-        std::printf("SKIP: no usable Vulkan device: %s\n", e.what());
-        return 77;
-      }
       std::printf("FAIL case %zu: %s\n", k, e.what());
       return 1;
     }
     if (k == 0)
       std::printf(
-          "device %d: %s (%s, subgroup %u%s)\n", sgm->device().index, sgm->device().name.c_str(),
-          sgm->device().type.c_str(), sgm->device().subgroup_size,
-          aggregate_threads > 0 ? (", aggregation workgroup " + std::to_string(aggregate_threads)).c_str() : "");
+          "device %d: %s%s\n", sgm->device().index, describe(sgm->device()).c_str(),
+          aggregate_threads > 0 ? ("; aggregation workgroup " + std::to_string(aggregate_threads)).c_str() : "");
     // Gentle waves down two cases in three, so that column windows spanning many rows refine; the rest
     // keep waves that reject many of them.
     // Raw cases: the pair is rendered a little larger than the strip (or smaller: the maps then reach

@@ -19,7 +19,8 @@ struct AggregatePush {
 
 void AggregateStage::create(const KernelFactory& f, int threads, int max_disparities) {
   // Each invocation a block of words of four disparities, enough for max_disparities.
-  const std::int32_t words_each = (cost_words(max_disparities) + threads - 1) / threads;
+  threads_ = threads;
+  words_each_ = (cost_words(max_disparities) + threads - 1) / threads;
   kernel_ = f.make(
       kAggregateSpv, sizeof kAggregateSpv, sizeof(AggregatePush),
       [](const FrameBuffers& b) -> Bindings {
@@ -27,7 +28,16 @@ void AggregateStage::create(const KernelFactory& f, int threads, int max_dispari
         for (const Buffer& c : b.costs) costs.push_back(&c);
         return {{&b.match_cost}, costs};
       },
-      {threads, words_each}, VK_PIPELINE_CREATE_DISPATCH_BASE_BIT);
+      {threads_, words_each_}, VK_PIPELINE_CREATE_DISPATCH_BASE_BIT);
+}
+
+void AggregateStage::resize(const Device& device, const KernelFactory& f, int max_disparities) {
+  if ((cost_words(max_disparities) + threads_ - 1) / threads_ == words_each_) {
+    f.rebind(kernel_);
+    return;
+  }
+  destroy(device);
+  create(f, threads_, max_disparities);
 }
 
 void AggregateStage::record(VkCommandBuffer cb, int slot, ImageSize image, SgmBand band,

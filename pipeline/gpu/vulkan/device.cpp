@@ -1,6 +1,7 @@
 #include "device.hpp"
 
 #include <algorithm>
+#include <atomic>
 #include <cctype>
 #include <limits>
 
@@ -61,12 +62,40 @@ VkResult enumerate_physical_devices(VkInstance instance, std::uint32_t& n, VkPhy
   return vkEnumeratePhysicalDevices(instance, &n, devices);
 }
 
+std::atomic<std::uint64_t> devices_opened{0};
+
 std::string lower(std::string s) {
   for (char& c : s) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
   return s;
 }
 
+// "llvmpipe Mesa 22.3.6 (LLVM 15.0.6)", "NVIDIA 580.159.04": the driver's own name and version where the
+// device has Vulkan 1.2 (VkPhysicalDeviceDriverProperties), else its raw version number.
+std::string driver_of(VkPhysicalDevice pd, const VkPhysicalDeviceProperties& p) {
+  if (p.apiVersion >= VK_API_VERSION_1_2) {
+    auto driver = info_struct<VkPhysicalDeviceDriverProperties>(VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_DRIVER_PROPERTIES);
+    auto props = info_struct<VkPhysicalDeviceProperties2>(VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_PROPERTIES_2);
+    props.pNext = &driver;
+    vkGetPhysicalDeviceProperties2(pd, &props);
+    std::string s = driver.driverName;
+    if (driver.driverInfo[0] != '\0') s += std::string(s.empty() ? "" : " ") + driver.driverInfo;
+    if (!s.empty()) return s;
+  }
+  return "driver version " + std::to_string(p.driverVersion);
+}
+
 }  // namespace
+
+VkResult injected(VulkanFaults* faults, VulkanCall call) {
+  if (faults == nullptr) return VK_SUCCESS;
+  switch (faults->check(call)) {
+    case VulkanFault::None: return VK_SUCCESS;
+    case VulkanFault::DeviceLost: return VK_ERROR_DEVICE_LOST;
+    case VulkanFault::OutOfDeviceMemory: return VK_ERROR_OUT_OF_DEVICE_MEMORY;
+    case VulkanFault::InitializationFailed: return VK_ERROR_INITIALIZATION_FAILED;
+  }
+  return VK_SUCCESS;
+}
 
 std::string result_name(VkResult r) {
   switch (r) {
@@ -104,7 +133,8 @@ GpuStatus status_of(VkResult r) {
 VkInstance make_instance() {
   auto app = info_struct<VkApplicationInfo>(VK_STRUCTURE_TYPE_APPLICATION_INFO);
   app.pApplicationName = "rutd";
-  app.apiVersion = VK_API_VERSION_1_1;
+  // 1.2: the driver's name and version (driver_of()); the matcher itself needs only 1.1.
+  app.apiVersion = VK_API_VERSION_1_2;
   auto ci = info_struct<VkInstanceCreateInfo>(VK_STRUCTURE_TYPE_INSTANCE_CREATE_INFO);
   ci.pApplicationInfo = &app;
   VkInstance instance = VK_NULL_HANDLE;
@@ -131,6 +161,7 @@ GpuDeviceInfo describe(VkPhysicalDevice pd, int index) {
   info.name = props.properties.deviceName;
   info.type = type_name(props.properties.deviceType);
   info.subgroup_size = sub.subgroupSize;
+  info.driver = driver_of(pd, props.properties);
   const VkSubgroupFeatureFlags need = VK_SUBGROUP_FEATURE_BASIC_BIT | VK_SUBGROUP_FEATURE_ARITHMETIC_BIT;
   VkPhysicalDeviceFeatures features;
   vkGetPhysicalDeviceFeatures(pd, &features);
@@ -140,7 +171,7 @@ GpuDeviceInfo describe(VkPhysicalDevice pd, int index) {
   return info;
 }
 
-Device::Device(const std::string& wanted) {
+Device::Device(const std::string& wanted, VulkanFaults* faults) : faults_(faults) {
   instance_ = make_instance();
   try {
     select(wanted);
@@ -225,7 +256,10 @@ void Device::make_device() {
   VkPhysicalDeviceFeatures features{};
   features.shaderStorageBufferArrayDynamicIndexing = VK_TRUE;  // the directions' cost volumes (describe())
   di.pEnabledFeatures = &features;
-  check(vkCreateDevice(physical_, &di, nullptr, &device_), "vkCreateDevice");
+  VkResult r = injected(VulkanCall::CreateDevice);
+  if (r == VK_SUCCESS) r = vkCreateDevice(physical_, &di, nullptr, &device_);
+  check(r, "vkCreateDevice");
+  devices_opened.fetch_add(1, std::memory_order_relaxed);
   vkGetDeviceQueue(device_, family_, 0, &queue_);
   vkGetPhysicalDeviceMemoryProperties(physical_, &memory_);
   VkPhysicalDeviceProperties p;
@@ -248,6 +282,13 @@ std::vector<GpuDeviceInfo> list_gpu_devices() {
   }
   vkDestroyInstance(instance, nullptr);
   return out;
+}
+
+std::uint64_t gpu_devices_opened() { return vk::devices_opened.load(std::memory_order_relaxed); }
+
+std::string describe(const GpuDeviceInfo& info) {
+  return info.name + " (" + info.type + ", driver " + info.driver + ", subgroup " + std::to_string(info.subgroup_size) +
+         ")";
 }
 
 std::string_view to_string(GpuStatus status) {

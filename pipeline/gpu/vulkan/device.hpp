@@ -26,6 +26,10 @@ void check(VkResult r, const char* call);
 // Per frame: the status a caller acts on.
 GpuStatus status_of(VkResult r);
 
+// The result a Vulkan call would return instead of being made (the fault hook, vulkan_faults.hpp), or
+// VK_SUCCESS: make the call. faults may be nullptr.
+VkResult injected(VulkanFaults* faults, VulkanCall call);
+
 VkInstance make_instance();
 std::vector<VkPhysicalDevice> physical_devices(VkInstance instance);
 GpuDeviceInfo describe(VkPhysicalDevice pd, int index);
@@ -33,8 +37,9 @@ GpuDeviceInfo describe(VkPhysicalDevice pd, int index);
 // One logical device with one compute queue. Owns the instance and the device; not copyable.
 class Device {
  public:
-  // wanted: as VulkanSgm's constructor. Throws GpuError naming the device and the failing call.
-  explicit Device(const std::string& wanted);
+  // wanted: as VulkanSgm's constructor; faults: VulkanSgmOptions::faults. Throws GpuError naming the device
+  // and the failing call.
+  Device(const std::string& wanted, VulkanFaults* faults);
   ~Device();
   Device(const Device&) = delete;
   Device& operator=(const Device&) = delete;
@@ -48,6 +53,8 @@ class Device {
   const GpuDeviceInfo& info() const { return info_; }
   double timestamp_ns() const { return timestamp_ns_; }  // per tick; 0: no timestamps on the queue
   std::uint32_t subgroup_size() const { return info_.subgroup_size > 0 ? info_.subgroup_size : 1; }
+  // The fault hook at this device's calls: VK_SUCCESS, or the result `call` is to return instead.
+  VkResult injected(VulkanCall call) const { return vk::injected(faults_, call); }
 
  private:
   void select(const std::string& wanted);
@@ -64,6 +71,7 @@ class Device {
   VkPhysicalDeviceLimits limits_{};
   GpuDeviceInfo info_;
   double timestamp_ns_ = 0;
+  VulkanFaults* faults_ = nullptr;
 };
 
 }  // namespace rutd::gpu::vk

@@ -39,6 +39,10 @@ void DicStage::create(const KernelFactory& f, std::uint32_t subgroup_size) {
   columns_ = f.make(kDicSpv, sizeof kDicSpv, sizeof(DicPush), dic_bindings, {1});
 }
 
+void DicStage::rebind(const KernelFactory& f) const {
+  for (const Kernel* k : {&bspline_, &pixels_, &columns_}) f.rebind(*k);
+}
+
 void DicStage::destroy(const Device& device) {
   for (Kernel* k : {&bspline_, &pixels_, &columns_}) vk::destroy(device, *k);
 }

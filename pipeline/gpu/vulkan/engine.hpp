@@ -51,7 +51,7 @@ struct VulkanSgm::Impl {
   VkCommandPool pool = VK_NULL_HANDLE;
   VkDescriptorPool descriptors = VK_NULL_HANDLE;
   VkQueryPool queries = VK_NULL_HANDLE;
-  int aggregate_threads = 0;  // 0: the subgroup size
+  VulkanSgmOptions options;
   struct Slot {
     vk::FrameBuffers dev;
     vk::Recorded recorded;
@@ -76,8 +76,12 @@ struct VulkanSgm::Impl {
   bool lost = false;
 
   ~Impl();
-  // Buffers, command buffers, queries and kernels for width x height and max_disparities. Throws GpuError.
+  // Command buffers, queries and kernels, and the buffers of allocate(). Throws GpuError.
   void setup();
+  // The buffers for width x height and max_disparities: each slot's FrameBuffers, upload and download.
+  void allocate();
+  // Frees what allocate() and set_rectification() allocated.
+  void free_buffers();
   vk::KernelFactory kernels() const;
   vk::ImageSize strip_size() const { return {width, height, words_per_row}; }
 

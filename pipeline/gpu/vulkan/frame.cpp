@@ -203,7 +203,8 @@ GpuStatus VulkanSgm::Impl::submit(const ImageView& left, const ImageView& right,
     auto si = vk::info_struct<VkSubmitInfo>(VK_STRUCTURE_TYPE_SUBMIT_INFO);
     si.commandBufferCount = 1;
     si.pCommandBuffers = &slot.commands;
-    r = vkQueueSubmit(device->queue(), 1, &si, slot.fence);
+    r = device->injected(VulkanCall::QueueSubmit);
+    if (r == VK_SUCCESS) r = vkQueueSubmit(device->queue(), 1, &si, slot.fence);
   }
   if (r != VK_SUCCESS) return fail(r);
   slot.busy = true;
@@ -221,7 +222,8 @@ GpuStatus VulkanSgm::Impl::collect(int ticket, float* disparity, std::size_t str
   const VkDevice d = device->handle();
   // Poll for up to a millisecond before sleeping in the driver: a frame takes about that long on a GPU,
   // and a sleeping wait adds its wake-up to every frame's latency.
-  VkResult r = VK_NOT_READY;
+  VkResult r = device->injected(VulkanCall::WaitForFrame);
+  if (r == VK_SUCCESS) r = VK_NOT_READY;
   const auto spin_until = std::chrono::steady_clock::now() + std::chrono::milliseconds(1);
   while (r == VK_NOT_READY && std::chrono::steady_clock::now() < spin_until) r = vkGetFenceStatus(d, slot.fence);
   if (r == VK_NOT_READY) r = vkWaitForFences(d, 1, &slot.fence, VK_TRUE, timeout_ns);

@@ -8,6 +8,7 @@ Kernel KernelFactory::make(const std::uint32_t* spv, std::size_t bytes, std::uin
   const VkDevice d = device_.handle();
   const Bindings bindings = bindings_of(*slots_[0]);
   Kernel k;
+  k.bindings_of = bindings_of;
   try {
     std::vector<VkDescriptorSetLayoutBinding> lb(bindings.size());
     for (std::size_t i = 0; i < lb.size(); ++i) {
@@ -44,7 +45,8 @@ Kernel KernelFactory::make(const std::uint32_t* spv, std::size_t bytes, std::uin
     if (!spec.empty()) ci.stage.pSpecializationInfo = &spec_info;
     ci.layout = k.layout;
     ci.flags = flags;
-    const VkResult r = vkCreateComputePipelines(d, VK_NULL_HANDLE, 1, &ci, nullptr, &k.pipeline);
+    VkResult r = device_.injected(VulkanCall::CreatePipeline);
+    if (r == VK_SUCCESS) r = vkCreateComputePipelines(d, VK_NULL_HANDLE, 1, &ci, nullptr, &k.pipeline);
     vkDestroyShaderModule(d, module, nullptr);
     check(r, "vkCreateComputePipelines");
     auto ai = info_struct<VkDescriptorSetAllocateInfo>(VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO);
@@ -63,9 +65,10 @@ Kernel KernelFactory::make(const std::uint32_t* spv, std::size_t bytes, std::uin
   return k;
 }
 
-void KernelFactory::rebind(const Kernel& k, const BindingsOf& bindings_of) const {
+void KernelFactory::rebind(const Kernel& k) const {
+  if (k.pipeline == VK_NULL_HANDLE) return;
   for (int slot = 0; slot < kSlots; ++slot)
-    write_set(k.sets[static_cast<std::size_t>(slot)], bindings_of(*slots_[static_cast<std::size_t>(slot)]));
+    write_set(k.sets[static_cast<std::size_t>(slot)], k.bindings_of(*slots_[static_cast<std::size_t>(slot)]));
 }
 
 void KernelFactory::write_set(VkDescriptorSet set, const Bindings& bindings) const {

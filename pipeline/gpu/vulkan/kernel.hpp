@@ -41,6 +41,7 @@ struct Kernel {
   VkPipelineLayout layout = VK_NULL_HANDLE;
   VkPipeline pipeline = VK_NULL_HANDLE;
   std::array<VkDescriptorSet, kSlots> sets{};  // a slot's FrameBuffers
+  BindingsOf bindings_of;                      // what the sets bind, for rebind()
 };
 
 // Makes kernels on one device from one descriptor pool, binding each slot's buffers.
@@ -53,8 +54,9 @@ class KernelFactory {
   // specialization constants 0, 1, ..., where it has them. Throws GpuError.
   Kernel make(const std::uint32_t* spv, std::size_t bytes, std::uint32_t push_bytes, const BindingsOf& bindings_of,
               const std::vector<std::int32_t>& spec = {}, VkPipelineCreateFlags flags = 0) const;
-  // Points every slot's set of `k` at the buffers bindings_of gives now (after a reallocation).
-  void rebind(const Kernel& k, const BindingsOf& bindings_of) const;
+  // Points every slot's set of `k` at the buffers its bindings_of gives now (after a reallocation); a
+  // kernel not made is left alone.
+  void rebind(const Kernel& k) const;
 
  private:
   void write_set(VkDescriptorSet set, const Bindings& bindings) const;

@@ -21,11 +21,7 @@ Bindings rectify_bindings(const FrameBuffers& f, const Buffer& map_left, const B
 
 void RectifyStage::create(const KernelFactory& f, const Buffer& map_left, const Buffer& map_right) {
   kernel_ = f.make(kRectifySpv, sizeof kRectifySpv, sizeof(RectifyPush),
-                   [&](const FrameBuffers& b) { return rectify_bindings(b, map_left, map_right); });
-}
-
-void RectifyStage::rebind(const KernelFactory& f, const Buffer& map_left, const Buffer& map_right) const {
-  f.rebind(kernel_, [&](const FrameBuffers& b) { return rectify_bindings(b, map_left, map_right); });
+                   [l = &map_left, r = &map_right](const FrameBuffers& b) { return rectify_bindings(b, *l, *r); });
 }
 
 void RectifyStage::record(VkCommandBuffer cb, int slot, ImageSize strip, const RawRows& raw) const {

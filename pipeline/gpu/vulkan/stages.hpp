@@ -32,10 +32,10 @@ struct RawRows {
 
 class RectifyStage {
  public:
-  // maps: both cameras' maps (rectify.hpp), shared by the slots; the raw images are FrameBuffers::raw_*.
+  // maps: both cameras' maps (rectify.hpp), shared by the slots, which the stage keeps binding wherever
+  // they are reallocated; the raw images are FrameBuffers::raw_*.
   void create(const KernelFactory& f, const Buffer& map_left, const Buffer& map_right);
-  // After the maps or raw buffers were reallocated.
-  void rebind(const KernelFactory& f, const Buffer& map_left, const Buffer& map_right) const;
+  void rebind(const KernelFactory& f) const { f.rebind(kernel_); }
   bool created() const { return kernel_.pipeline != VK_NULL_HANDLE; }
   void record(VkCommandBuffer cb, int slot, ImageSize strip, const RawRows& raw) const;
   void destroy(const Device& device) { vk::destroy(device, kernel_); }
@@ -48,6 +48,7 @@ class RectifyStage {
 class BandStage {
  public:
   void create(const KernelFactory& f);
+  void rebind(const KernelFactory& f) const { f.rebind(kernel_); }
   bool created() const { return kernel_.pipeline != VK_NULL_HANDLE; }
   void record(VkCommandBuffer cb, int slot, ImageSize strip, const CoarseGrid& grid) const;
   void destroy(const Device& device) { vk::destroy(device, kernel_); }
@@ -59,6 +60,7 @@ class BandStage {
 class CensusStage {
  public:
   void create(const KernelFactory& f);
+  void rebind(const KernelFactory& f) const { f.rebind(kernel_); }
   void record(VkCommandBuffer cb, int slot, ImageSize image) const;
   void destroy(const Device& device) { vk::destroy(device, kernel_); }
 
@@ -69,6 +71,7 @@ class CensusStage {
 class CostStage {
  public:
   void create(const KernelFactory& f);
+  void rebind(const KernelFactory& f) const { f.rebind(kernel_); }
   void record(VkCommandBuffer cb, int slot, ImageSize image, SgmBand band) const;
   void destroy(const Device& device) { vk::destroy(device, kernel_); }
 
@@ -81,16 +84,20 @@ class AggregateStage {
   // threads: the workgroup size (the device's subgroup size for the fast path); max_disparities: the
   // most the matcher takes.
   void create(const KernelFactory& f, int threads, int max_disparities);
+  // For a new disparity count: the kernel again where its words per invocation change, else rebound.
+  void resize(const Device& device, const KernelFactory& f, int max_disparities);
   void record(VkCommandBuffer cb, int slot, ImageSize image, SgmBand band, const SgmConfig& params) const;
   void destroy(const Device& device) { vk::destroy(device, kernel_); }
 
  private:
   Kernel kernel_;
+  int threads_ = 0, words_each_ = 0;
 };
 
 class WtaStage {
  public:
   void create(const KernelFactory& f);
+  void rebind(const KernelFactory& f) const { f.rebind(kernel_); }
   void record(VkCommandBuffer cb, int slot, ImageSize image, SgmBand band, const SgmConfig& params) const;
   void destroy(const Device& device) { vk::destroy(device, kernel_); }
 
@@ -101,6 +108,7 @@ class WtaStage {
 class LrMedianStage {
  public:
   void create(const KernelFactory& f);
+  void rebind(const KernelFactory& f) const { f.rebind(kernel_); }
   void record(VkCommandBuffer cb, int slot, ImageSize image, SgmBand band, const SgmConfig& params) const;
   void destroy(const Device& device) { vk::destroy(device, kernel_); }
 
@@ -112,6 +120,7 @@ class DicStage {
  public:
   // subgroup_size: the device's; one window per subgroup.
   void create(const KernelFactory& f, std::uint32_t subgroup_size);
+  void rebind(const KernelFactory& f) const;
   // The B-spline coefficients of both images (with the census: it reads the same images).
   void record_prefilter(VkCommandBuffer cb, int slot, ImageSize image) const;
   void record(VkCommandBuffer cb, int slot, ImageSize image, const DicKernelConfig& d) const;

@@ -27,19 +27,8 @@ VulkanSgm::Impl::~Impl() {
   dic.destroy(*device);
   rectify.destroy(*device);
   band.destroy(*device);
-  for (Slot& s : slots) {
-    vk::FrameBuffers& f = s.dev;
-    for (Buffer* b :
-         {&f.image_left, &f.image_right, &f.census_left, &f.census_right, &f.match_cost, &f.disp_left, &f.right_key,
-          &f.disparity, &f.spline_left, &f.spline_right, &f.refined, &f.raw_left, &f.raw_right})
-      vk::destroy(*device, *b);
-    for (Buffer& b : f.costs) vk::destroy(*device, b);
-    vk::destroy(*device, s.upload);
-    vk::destroy(*device, s.download);
-    vkDestroyFence(d, s.fence, nullptr);
-  }
-  vk::destroy(*device, map_left);
-  vk::destroy(*device, map_right);
+  free_buffers();
+  for (Slot& s : slots) vkDestroyFence(d, s.fence, nullptr);
   vkDestroyQueryPool(d, queries, nullptr);
   vkDestroyDescriptorPool(d, descriptors, nullptr);
   vkDestroyCommandPool(d, pool, nullptr);
@@ -49,7 +38,26 @@ vk::KernelFactory VulkanSgm::Impl::kernels() const {
   return vk::KernelFactory(*device, descriptors, {&slots[0].dev, &slots[1].dev});
 }
 
-void VulkanSgm::Impl::setup() {
+void VulkanSgm::Impl::free_buffers() {
+  for (Slot& s : slots) {
+    vk::FrameBuffers& f = s.dev;
+    for (Buffer* b :
+         {&f.image_left, &f.image_right, &f.census_left, &f.census_right, &f.match_cost, &f.disp_left, &f.right_key,
+          &f.disparity, &f.spline_left, &f.spline_right, &f.refined, &f.raw_left, &f.raw_right})
+      vk::destroy(*device, *b);
+    for (Buffer& b : f.costs) vk::destroy(*device, b);
+    vk::destroy(*device, s.upload);
+    vk::destroy(*device, s.download);
+    s.recorded = vk::Recorded{};
+    s.busy = false;
+  }
+  vk::destroy(*device, map_left);
+  vk::destroy(*device, map_right);
+  raw = vk::RawRows{};
+  raw_bytes = 0;
+}
+
+void VulkanSgm::Impl::allocate() {
   const vk::Device& dev = *device;
   words_per_row = (width + 3) / 4;
   const auto pixels = static_cast<VkDeviceSize>(width) * static_cast<VkDeviceSize>(height);
@@ -74,16 +82,20 @@ void VulkanSgm::Impl::setup() {
     for (Buffer& b : f.costs) b = vk::make_buffer(dev, cost_bytes, storage, false);
     for (Buffer* b : {&f.disp_left, &f.right_key, &f.disparity, &f.spline_left, &f.spline_right, &f.refined})
       *b = vk::make_buffer(dev, pixels * 4, storage, false);
+    s.upload = vk::make_buffer(dev, image_bytes * 2, VK_BUFFER_USAGE_TRANSFER_SRC_BIT, true);
+    // The disparity, both strips, and (band estimate) the coarse left image.
+    s.download = vk::make_buffer(dev, pixels * 4 + 3 * image_bytes, VK_BUFFER_USAGE_TRANSFER_DST_BIT, true);
   }
+}
 
+void VulkanSgm::Impl::setup() {
+  const vk::Device& dev = *device;
+  allocate();
   auto pi = info_struct<VkCommandPoolCreateInfo>(VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO);
   pi.flags = VK_COMMAND_POOL_CREATE_RESET_COMMAND_BUFFER_BIT;
   pi.queueFamilyIndex = dev.family();
   check(vkCreateCommandPool(dev.handle(), &pi, nullptr, &pool), "vkCreateCommandPool");
   for (Slot& s : slots) {
-    s.upload = vk::make_buffer(dev, image_bytes * 2, VK_BUFFER_USAGE_TRANSFER_SRC_BIT, true);
-    // The disparity, both strips, and (band estimate) the coarse left image.
-    s.download = vk::make_buffer(dev, pixels * 4 + 3 * image_bytes, VK_BUFFER_USAGE_TRANSFER_DST_BIT, true);
     auto ai = info_struct<VkCommandBufferAllocateInfo>(VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO);
     ai.commandPool = pool;
     ai.level = VK_COMMAND_BUFFER_LEVEL_PRIMARY;
@@ -109,29 +121,38 @@ void VulkanSgm::Impl::setup() {
   census.create(f);
   cost.create(f);
   // aggregate.comp: a workgroup of one subgroup as the device reports it.
-  const int threads = aggregate_threads > 0 ? aggregate_threads
-                                            : static_cast<int>(std::clamp<std::uint32_t>(dev.subgroup_size(), 4, 128));
+  const int threads = options.aggregate_threads > 0
+                          ? options.aggregate_threads
+                          : static_cast<int>(std::clamp<std::uint32_t>(dev.subgroup_size(), 4, 128));
   aggregate.create(f, threads, max_disparities);
   wta.create(f);
   lr_median.create(f);
   dic.create(f, dev.subgroup_size());
 }
 
-VulkanSgm::VulkanSgm(const std::string& device, int width, int height, int max_disparities, int timeout_ms,
-                     int aggregate_threads)
-    : impl_(std::make_unique<Impl>()) {
+namespace {
+
+void check_size(int width, int height, int max_disparities) {
   if (width < 1 || height < 1 || max_disparities < 2 || max_disparities > kMaxDisparities)
     throw GpuError("VulkanSgm: bad size " + std::to_string(width) + "x" + std::to_string(height) + ", " +
                    std::to_string(max_disparities) + " disparities");
+}
+
+}  // namespace
+
+VulkanSgm::VulkanSgm(const std::string& device, int width, int height, int max_disparities,
+                     const VulkanSgmOptions& options)
+    : impl_(std::make_unique<Impl>()) {
+  check_size(width, height, max_disparities);
   Impl& m = *impl_;
   m.width = width;
   m.height = height;
   m.max_disparities = max_disparities;
-  if (aggregate_threads < 0 || aggregate_threads > 128)
-    throw GpuError("VulkanSgm: aggregate_threads " + std::to_string(aggregate_threads) + " is not 0..128");
-  m.aggregate_threads = aggregate_threads;
-  m.device = std::make_unique<vk::Device>(device);
-  if (timeout_ms <= 0) timeout_ms = m.device->info().type == "cpu" ? 300000 : 2000;
+  if (options.aggregate_threads < 0 || options.aggregate_threads > 128)
+    throw GpuError("VulkanSgm: aggregate_threads " + std::to_string(options.aggregate_threads) + " is not 0..128");
+  m.options = options;
+  m.device = std::make_unique<vk::Device>(device, options.faults);
+  const int timeout_ms = options.timeout_ms > 0 ? options.timeout_ms : m.device->info().type == "cpu" ? 300000 : 2000;
   m.timeout_ns = static_cast<std::uint64_t>(timeout_ms) * 1000000u;
   try {
     m.setup();
@@ -145,6 +166,36 @@ VulkanSgm::~VulkanSgm() = default;
 const GpuDeviceInfo& VulkanSgm::device() const { return impl_->device->info(); }
 int VulkanSgm::width() const { return impl_->width; }
 int VulkanSgm::height() const { return impl_->height; }
+int VulkanSgm::max_disparities() const { return impl_->max_disparities; }
+
+void VulkanSgm::resize(int width, int height, int max_disparities) {
+  check_size(width, height, max_disparities);
+  Impl& m = *impl_;
+  const vk::Device& dev = *m.device;
+  if (m.lost) throw GpuError(dev.info().name + ": device lost");
+  const VkResult idle = vkDeviceWaitIdle(dev.handle());
+  if (idle != VK_SUCCESS) throw GpuError(dev.info().name + ": vkDeviceWaitIdle: " + vk::result_name(idle));
+  m.free_buffers();
+  m.width = width;
+  m.height = height;
+  m.max_disparities = max_disparities;
+  try {
+    m.allocate();
+    const vk::KernelFactory f = m.kernels();
+    m.census.rebind(f);
+    m.cost.rebind(f);
+    m.aggregate.resize(dev, f, max_disparities);
+    m.wta.rebind(f);
+    m.lr_median.rebind(f);
+    m.dic.rebind(f);
+    m.band.rebind(f);
+    // The rectification kernel's sets still name the freed maps: submit_raw() refuses until
+    // set_rectification() allocates and binds new ones.
+  } catch (const GpuError& e) {
+    m.lost = true;  // half-allocated: nothing more runs
+    throw GpuError(dev.info().name + ": " + e.what());
+  }
+}
 
 void VulkanSgm::set_rectification(const RectifyMaps& maps) {
   Impl& m = *impl_;
@@ -189,7 +240,7 @@ void VulkanSgm::set_rectification(const RectifyMaps& maps) {
     const vk::KernelFactory f = m.kernels();
     if (!m.band.created()) m.band.create(f);
     if (!m.rectify.created()) m.rectify.create(f, m.map_left, m.map_right);
-    else m.rectify.rebind(f, m.map_left, m.map_right);
+    else m.rectify.rebind(f);
   } catch (const GpuError& e) {
     throw GpuError(name + ": " + e.what());
   }

@@ -21,6 +21,7 @@
 #include "gpu/dic.hpp"
 #include "gpu/rectify.hpp"
 #include "gpu/sgm.hpp"
+#include "gpu/vulkan_faults.hpp"
 
 namespace rutd::gpu {
 
@@ -36,12 +37,18 @@ struct GpuDeviceInfo {
   int index = -1;    // in the loader's enumeration order
   std::string name;  // VkPhysicalDeviceProperties::deviceName
   std::string type;  // "discrete", "integrated", "virtual", "cpu", "other"
+  // The driver's name and version (VkPhysicalDeviceDriverProperties: "NVIDIA 580.159.04", "llvmpipe Mesa
+  // 22.3.6 (LLVM 15.0.6)"), or its raw driverVersion where the device predates Vulkan 1.2.
+  std::string driver;
   std::uint32_t subgroup_size = 0;
   bool usable = false;  // Vulkan 1.1, subgroup arithmetic in compute shaders
 };
 
 // Every physical device the loader reports. Throws GpuError when there is no Vulkan loader or instance.
 std::vector<GpuDeviceInfo> list_gpu_devices();
+
+// Logical devices this process has opened so far (one per VulkanSgm: resize() keeps its device).
+std::uint64_t gpu_devices_opened();
 
 // Device time of each stage of one frame, ms (GPU timestamps; all 0 when the queue has none). rectify_ms
 // is 0 for rectified input; census_ms includes the DIC's B-spline prefilter.
@@ -62,18 +69,30 @@ struct StripsOut {
   std::size_t coarse_stride = 0;
 };
 
+// One line naming the device, its type, driver and subgroup size, for logs and reports.
+std::string describe(const GpuDeviceInfo& info);
+
+struct VulkanSgmOptions {
+  // Bounds the wait for one frame; <= 0: 2 s on a GPU, 300 s on a CPU device (lavapipe takes seconds per
+  // full frame).
+  int timeout_ms = 0;
+  // The aggregation's workgroup size, 0..128; 0 is the device's subgroup size (its fast path). Tests give
+  // several subgroups' worth to run its shared-memory path, which devices that choose a smaller subgroup
+  // than they report take.
+  int aggregate_threads = 0;
+  // Tests only: faults injected at the lowest Vulkan calls (vulkan_faults.hpp); nullptr: none. The
+  // caller keeps it alive while the matcher exists.
+  VulkanFaults* faults = nullptr;
+};
+
 class VulkanSgm {
  public:
   // device: "" picks the first usable device preferring discrete, then integrated, virtual, CPU; a decimal
   // number picks that index; anything else the first usable device whose name contains it (case-
   // insensitive). Every buffer is allocated here for width x height pairs and up to max_disparities.
-  // timeout_ms bounds the wait for one frame; <= 0: 2 s on a GPU, 300 s on a CPU device (lavapipe takes
-  // seconds per full frame). Throws GpuError naming the device and the failing call.
-  // aggregate_threads: the aggregation's workgroup size; 0 is the device's subgroup size (its fast path).
-  // Tests give several subgroups' worth to run its shared-memory path, which devices that choose a
-  // smaller subgroup than they report take.
-  VulkanSgm(const std::string& device, int width, int height, int max_disparities, int timeout_ms = 0,
-            int aggregate_threads = 0);
+  // Throws GpuError naming the device and the failing call.
+  VulkanSgm(const std::string& device, int width, int height, int max_disparities,
+            const VulkanSgmOptions& options = {});
   ~VulkanSgm();
   VulkanSgm(const VulkanSgm&) = delete;
   VulkanSgm& operator=(const VulkanSgm&) = delete;
@@ -81,6 +100,12 @@ class VulkanSgm {
   const GpuDeviceInfo& device() const;
   int width() const;
   int height() const;
+  int max_disparities() const;
+
+  // Buffers for a new size and disparity count, on the same device with the same kernels (a device is
+  // opened once per matcher): waits for the frames in flight, which are then lost, and forgets the
+  // rectification (set_rectification() again). Throws GpuError (the matcher is then unusable).
+  void resize(int width, int height, int max_disparities);
 
   // Rectification on the device: from now on submit_raw() takes raw images of maps.raw_width x
   // maps.raw_height and resamples them into width() x height() strips through `maps` (rectify.hpp) before
