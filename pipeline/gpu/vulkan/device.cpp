@@ -162,11 +162,20 @@ GpuDeviceInfo describe(VkPhysicalDevice pd, int index) {
   info.type = type_name(props.properties.deviceType);
   info.subgroup_size = sub.subgroupSize;
   info.driver = driver_of(pd, props.properties);
-  const VkSubgroupFeatureFlags need = VK_SUBGROUP_FEATURE_BASIC_BIT | VK_SUBGROUP_FEATURE_ARITHMETIC_BIT;
-  VkPhysicalDeviceFeatures features;
-  vkGetPhysicalDeviceFeatures(pd, &features);
+  const VkSubgroupFeatureFlags need = VK_SUBGROUP_FEATURE_BASIC_BIT | VK_SUBGROUP_FEATURE_ARITHMETIC_BIT |
+                                      VK_SUBGROUP_FEATURE_SHUFFLE_BIT | VK_SUBGROUP_FEATURE_SHUFFLE_RELATIVE_BIT;
+  // 16-bit storage: the downloaded disparity (DisparityView) is written 16 bits a pixel.
+  auto storage16 =
+      info_struct<VkPhysicalDevice16BitStorageFeatures>(VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_16BIT_STORAGE_FEATURES);
+  auto float16 = info_struct<VkPhysicalDeviceShaderFloat16Int8Features>(
+      VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_SHADER_FLOAT16_INT8_FEATURES);
+  auto features = info_struct<VkPhysicalDeviceFeatures2>(VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2);
+  features.pNext = &storage16;
+  if (props.properties.apiVersion >= VK_API_VERSION_1_2) storage16.pNext = &float16;  // core in 1.2
+  vkGetPhysicalDeviceFeatures2(pd, &features);
+  info.half = float16.shaderFloat16 == VK_TRUE;
   info.usable = props.properties.apiVersion >= VK_API_VERSION_1_1 && (sub.supportedOperations & need) == need &&
-                features.shaderStorageBufferArrayDynamicIndexing &&
+                features.features.shaderStorageBufferArrayDynamicIndexing && storage16.storageBuffer16BitAccess &&
                 (sub.supportedStages & VK_SHADER_STAGE_COMPUTE_BIT) != 0;
   return info;
 }
@@ -256,6 +265,14 @@ void Device::make_device() {
   VkPhysicalDeviceFeatures features{};
   features.shaderStorageBufferArrayDynamicIndexing = VK_TRUE;  // the directions' cost volumes (describe())
   di.pEnabledFeatures = &features;
+  auto storage16 =
+      info_struct<VkPhysicalDevice16BitStorageFeatures>(VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_16BIT_STORAGE_FEATURES);
+  storage16.storageBuffer16BitAccess = VK_TRUE;  // the downloaded disparity (describe())
+  di.pNext = &storage16;
+  auto float16 = info_struct<VkPhysicalDeviceShaderFloat16Int8Features>(
+      VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_SHADER_FLOAT16_INT8_FEATURES);
+  float16.shaderFloat16 = info_.half ? VK_TRUE : VK_FALSE;  // VulkanSgmOptions::aggregate_half
+  if (info_.half) storage16.pNext = &float16;
   VkResult r = injected(VulkanCall::CreateDevice);
   if (r == VK_SUCCESS) r = vkCreateDevice(physical_, &di, nullptr, &device_);
   check(r, "vkCreateDevice");

@@ -20,9 +20,10 @@ struct BsplinePush {
 };
 
 struct DicPush {
-  std::int32_t width, height, words_per_row, h, hh, max_iterations, step, row_step, first_row, columns, first_order;
+  std::int32_t width, height, words_per_row, h, hh, max_iterations, step, row_step, first_row, last_row, first_order;
   float tolerance, max_shift, max_gradient, min_gradient, min_zncc, max_sigma;
   std::int32_t rows, blocks;  // column windows
+  std::int32_t base, scale;   // the output's fixed point
 };
 
 }  // namespace
@@ -33,7 +34,7 @@ void DicStage::create(const KernelFactory& f, std::uint32_t subgroup_size) {
     return {{&b.image_left}, {&b.image_right}, {&b.spline_left}, {&b.spline_right}};
   });
   const auto dic_bindings = [](const FrameBuffers& b) -> Bindings {
-    return {{&b.image_left}, {&b.spline_left}, {&b.spline_right}, {&b.disparity}, {&b.refined}};
+    return {{&b.image_left}, {&b.spline_left}, {&b.spline_right}, {&b.disparity}, {&b.fixed}};
   };
   pixels_ = f.make(kDicSpv, sizeof kDicSpv, sizeof(DicPush), dic_bindings, {0});
   columns_ = f.make(kDicSpv, sizeof kDicSpv, sizeof(DicPush), dic_bindings, {1});
@@ -52,7 +53,7 @@ void DicStage::record_prefilter(VkCommandBuffer cb, int slot, ImageSize image) c
            static_cast<std::uint32_t>(image.height), 2);
 }
 
-void DicStage::record(VkCommandBuffer cb, int slot, ImageSize image, const DicKernelConfig& d) const {
+void DicStage::record(VkCommandBuffer cb, int slot, ImageSize image, const DicKernelConfig& d, FixedPoint fixed) const {
   // One subgroup per window (dic.comp), at most 64 / subgroup_size of them per workgroup; a subgroup
   // smaller than the reported size only means fewer workgroups would have done.
   const int per_group = std::max(1, 64 / static_cast<int>(subgroup_size_));
@@ -73,24 +74,24 @@ void DicStage::record(VkCommandBuffer cb, int slot, ImageSize image, const DicKe
   push.min_gradient = d.min_gradient;
   push.min_zncc = d.min_zncc;
   push.max_sigma = d.max_sigma_px;
+  push.base = fixed.base;
+  push.scale = fixed.scale;
+  // Every pixel is written: refined, or invalid (dic.comp).
   if (d.column_windows) {
-    // Every column of every row block (workgroup y).
+    // Every column of every row block (workgroup y); one workgroup row where there is no block.
     const ColumnBlocks blocks(d, height);
     push.hh = blocks.half_height();
     push.first_row = blocks.row_begin;
-    push.columns = width;
     push.rows = blocks.rows;
     push.blocks = blocks.count;
-    if (blocks.count > 0)
-      dispatch(cb, slot, columns_, push, groups(width, per_group), static_cast<std::uint32_t>(blocks.count), 1);
+    dispatch(cb, slot, columns_, push, groups(width, per_group), static_cast<std::uint32_t>(std::max(blocks.count, 1)),
+             1);
   } else {
-    // The grid: columns x % step == 0, rows y % row_step == 0 in [row_begin, row_end).
-    const int begin = std::max(d.row_begin, 0), end = std::min(d.row_end, height);
+    // The grid: columns x % step == 0, rows y % row_step == 0 in [row_begin, row_end); workgroup y a row.
+    const int begin = std::max(d.row_begin, 0);
     push.first_row = (begin + d.row_step - 1) / d.row_step * d.row_step;
-    const int rows = push.first_row < end ? (end - 1 - push.first_row) / d.row_step + 1 : 0;
-    push.columns = (width + d.step - 1) / d.step;
-    if (rows > 0)
-      dispatch(cb, slot, pixels_, push, groups(push.columns, per_group), static_cast<std::uint32_t>(rows), 1);
+    push.last_row = std::min(d.row_end, height);
+    dispatch(cb, slot, pixels_, push, groups(width, per_group), static_cast<std::uint32_t>(height), 1);
   }
 }
 

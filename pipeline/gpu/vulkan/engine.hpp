@@ -59,6 +59,7 @@ struct VulkanSgm::Impl {
     vk::Buffer download;  // host-visible: the disparity (floats), then both packed strips (raw input)
     vk::Input input = vk::Input::Rectified;  // of the frame in flight
     CoarseGrid grid;                         // RawCoarse: of the frame in flight
+    vk::FixedPoint fixed;                    // of the frame in flight's disparity
     VkCommandBuffer commands = VK_NULL_HANDLE;
     VkFence fence = VK_NULL_HANDLE;
     bool busy = false;
@@ -84,15 +85,19 @@ struct VulkanSgm::Impl {
   void free_buffers();
   vk::KernelFactory kernels() const;
   vk::ImageSize strip_size() const { return {width, height, words_per_row}; }
+  // Bytes of the 16-bit disparity of a strip, whole words: where the strips start in the download buffer.
+  VkDeviceSize fixed_bytes() const {
+    return (static_cast<VkDeviceSize>(width) * static_cast<VkDeviceSize>(height) * 2 + 3) / 4 * 4;
+  }
 
   // frame.cpp
   VkResult record(int slot, vk::Input input, SgmBand band, const SgmConfig& params, const DicKernelConfig* dic_params,
-                  const CoarseGrid& grid);
+                  const CoarseGrid& grid, vk::FixedPoint fixed);
   GpuStatus fail(VkResult r);
   // grid: RawCoarse only.
   GpuStatus submit(const ImageView& left, const ImageView& right, vk::Input input, SgmBand band,
                    const SgmConfig& params, const DicKernelConfig* dic, int& ticket, const CoarseGrid& grid = {});
-  GpuStatus collect(int ticket, float* disparity, std::size_t stride, GpuStageTimes* times, const StripsOut* strips);
+  GpuStatus collect(int ticket, FrameOutput& out, GpuStageTimes* times);
   GpuStatus read_stages(int ticket, SgmBand band, const SgmConfig& params, bool dic, SgmStages& st);
 };
 

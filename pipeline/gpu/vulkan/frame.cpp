@@ -3,8 +3,11 @@
 // for the slot and reading its download buffer.
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstring>
+#include <limits>
 #include <tuple>
+#include <utility>
 
 #include "engine.hpp"
 
@@ -18,7 +21,6 @@ namespace vk {
 namespace {
 
 constexpr std::uint32_t kNoMatch = 0xFFFFFFFFu;  // right_key: no disparity
-constexpr std::uint32_t kNanBits = 0x7FC00000u;  // a quiet NaN, float bits
 
 // `rows` rows of `row_bytes` bytes each, from rows `src_stride` bytes apart to rows `dst_stride` bytes apart.
 void copy_rows(void* dst, std::size_t dst_stride, const void* src, std::size_t src_stride, std::size_t row_bytes,
@@ -47,7 +49,39 @@ bool Recorded::operator==(const Recorded& o) const {
   return dic == o.dic && tie_sgm(*this) == tie_sgm(o) && (!dic || tie_dic(dic_params) == tie_dic(o.dic_params));
 }
 
+FixedPoint fixed_point(SgmBand band, const DicKernelConfig* dic, int height) {
+  // The matcher's disparities lie within half a px of the band; a DIC window's within max_shift_px of its
+  // start, and a column window's rows within its row slope (at most max_gradient) times the block's half
+  // height of that.
+  double margin = 1.0;
+  if (dic) {
+    double reach = dic->max_shift_px;
+    if (dic->column_windows) reach += dic->max_gradient * ColumnBlocks(*dic, height).half_height();
+    margin = std::max(margin, std::ceil(reach) + 1.0);
+  }
+  // Steps of 1/64 px must span it (DIC limits far beyond the defaults lose the values past that).
+  margin = std::min(margin, std::floor((65534.0 / 64 - band.num_disparities) / 2));
+  // The finest power of two (at least 64, the matcher's own steps) whose range holds the span: the 16 bits
+  // cost the DIC as little as they can.
+  const double span = band.num_disparities + 2 * margin;
+  int scale = 64;
+  while (span * scale * 2 <= 65534) scale *= 2;
+  return FixedPoint{band.min_disparity - static_cast<int>(margin), scale};
+}
+
 }  // namespace vk
+
+float DisparityView::at(int x, int y) const {
+  const std::uint16_t v = data[static_cast<std::size_t>(y) * stride + static_cast<std::size_t>(x)];
+  return v == kInvalid ? std::numeric_limits<float>::quiet_NaN() : offset_px + static_cast<float>(v) * step_px;
+}
+
+void DisparityView::decode_row(int y, float* out) const {
+  const std::uint16_t* row = data + static_cast<std::size_t>(y) * stride;
+  for (int x = 0; x < width; ++x)
+    out[x] =
+        row[x] == kInvalid ? std::numeric_limits<float>::quiet_NaN() : offset_px + static_cast<float>(row[x]) * step_px;
+}
 
 namespace {
 
@@ -60,7 +94,7 @@ void stamp(VkCommandBuffer cb, VkQueryPool queries, int slot, std::uint32_t i) {
 }  // namespace
 
 VkResult VulkanSgm::Impl::record(int slot, Input input, SgmBand band, const SgmConfig& params,
-                                 const DicKernelConfig* dic_params, const CoarseGrid& grid) {
+                                 const DicKernelConfig* dic_params, const CoarseGrid& grid, vk::FixedPoint fixed) {
   const VkCommandBuffer cb = slots[static_cast<std::size_t>(slot)].commands;
   constexpr VkPipelineStageFlags compute = VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT;
   constexpr VkPipelineStageFlags transfer = VK_PIPELINE_STAGE_TRANSFER_BIT;
@@ -81,14 +115,9 @@ VkResult VulkanSgm::Impl::record(int slot, Input input, SgmBand band, const SgmC
   vkCmdCopyBuffer(cb, up.buffer, (is_raw ? f.raw_left : f.image_left).buffer, 1, &copy);
   copy.srcOffset = upload_half;
   vkCmdCopyBuffer(cb, up.buffer, (is_raw ? f.raw_right : f.image_right).buffer, 1, &copy);
-  if (input != Input::RawOnly) {
-    // wta.comp takes the minimum key per right pixel with atomics; lr_median.comp reads none as no match.
-    vkCmdFillBuffer(cb, f.right_key.buffer, 0, VK_WHOLE_SIZE, vk::kNoMatch);
-    if (dic_params) vkCmdFillBuffer(cb, f.refined.buffer, 0, VK_WHOLE_SIZE, vk::kNanBits);  // pixels not refined
-  }
   vk::barrier(cb, transfer, compute);
   stamp(cb, queries, slot, 1);
-  const VkDeviceSize strips_at = static_cast<VkDeviceSize>(width) * static_cast<VkDeviceSize>(height) * 4;
+  const VkDeviceSize strips_at = fixed_bytes();
   if (is_raw) {
     rectify.record(cb, slot, strip_size(), raw);
     vk::barrier(cb, compute, compute | transfer);
@@ -125,22 +154,23 @@ VkResult VulkanSgm::Impl::record(int slot, Input input, SgmBand band, const SgmC
   stamp(cb, queries, slot, 3);
   cost.record(cb, slot, size, band);
   vk::barrier(cb, compute, compute);
-  aggregate.record(cb, slot, size, band, params);
+  if ((r = aggregate.record(cb, slot, size, band, params)) != VK_SUCCESS) return r;
   vk::barrier(cb, compute, compute);
   stamp(cb, queries, slot, 4);
-  wta.record(cb, slot, size, band, params);
+  if ((r = wta.record(cb, slot, size, band, params)) != VK_SUCCESS) return r;
   vk::barrier(cb, compute, compute);
   stamp(cb, queries, slot, 5);
-  lr_median.record(cb, slot, size, band, params);
+  // The matcher's disparity: in px for the DIC, else in the downloaded fixed point.
+  lr_median.record(cb, slot, size, band, params, dic_params != nullptr, dic_params == nullptr, fixed);
   vk::barrier(cb, compute, compute | transfer);
   stamp(cb, queries, slot, 6);
   if (dic_params) {
-    dic.record(cb, slot, strip_size(), *dic_params);
+    dic.record(cb, slot, strip_size(), *dic_params, fixed);
     vk::barrier(cb, compute, transfer);
   }
   stamp(cb, queries, slot, 7);
-  copy = VkBufferCopy{0, 0, static_cast<VkDeviceSize>(size.width) * static_cast<VkDeviceSize>(size.height) * 4};
-  vkCmdCopyBuffer(cb, (dic_params ? f.refined : f.disparity).buffer, down.buffer, 1, &copy);
+  copy = VkBufferCopy{0, 0, static_cast<VkDeviceSize>(size.width) * static_cast<VkDeviceSize>(size.height) * 2};
+  vkCmdCopyBuffer(cb, f.fixed.buffer, down.buffer, 1, &copy);
   vk::barrier(cb, transfer, VK_PIPELINE_STAGE_HOST_BIT);
   stamp(cb, queries, slot, 8);
   return vkEndCommandBuffer(cb);
@@ -173,18 +203,27 @@ GpuStatus VulkanSgm::Impl::submit(const ImageView& left, const ImageView& right,
   ticket = next_slot;
   Slot& slot = slots[static_cast<std::size_t>(ticket)];
   if (slot.busy) return GpuStatus::InvalidInput;  // two frames already in flight
-  // Pack both images into the upload buffer: words of four pixels, rows padded to whole words.
+  // Pack both images straight into the mapped upload buffer: words of four pixels, rows padded to whole
+  // words; one copy of the rows where the image's rows are already that (a width that is a multiple of 4,
+  // contiguous rows).
   auto* words = static_cast<std::uint8_t*>(slot.upload.mapped);
   const std::size_t row_bytes = static_cast<std::size_t>(is_raw ? raw.words_per_row : words_per_row) * 4;
   const int row0 = is_raw ? raw.row0 : 0, rows = is_raw ? raw.rows : h;
   for (int i = 0; i < 2; ++i) {
     const ImageView& im = i == 0 ? left : right;
+    std::uint8_t* to = words + static_cast<std::size_t>(i) * upload_half;
+    const std::uint8_t* from = im.data + static_cast<std::size_t>(row0) * im.stride;
+    if (im.stride == row_bytes && row_bytes == static_cast<std::size_t>(w)) {
+      std::memcpy(to, from, row_bytes * static_cast<std::size_t>(rows));
+      continue;
+    }
     for (int y = 0; y < rows; ++y) {
-      std::uint8_t* row = words + static_cast<std::size_t>(i) * upload_half + static_cast<std::size_t>(y) * row_bytes;
-      std::memcpy(row, im.data + static_cast<std::size_t>(row0 + y) * im.stride, static_cast<std::size_t>(w));
+      std::uint8_t* row = to + static_cast<std::size_t>(y) * row_bytes;
+      std::memcpy(row, from + static_cast<std::size_t>(y) * im.stride, static_cast<std::size_t>(w));
       std::memset(row + w, 0, row_bytes - static_cast<std::size_t>(w));
     }
   }
+  const vk::FixedPoint fixed = vk::fixed_point(band, dic_params, height);
   vk::Recorded wanted{true,
                       dic_params != nullptr,
                       input,
@@ -195,7 +234,7 @@ GpuStatus VulkanSgm::Impl::submit(const ImageView& left, const ImageView& right,
   VkResult r = VK_SUCCESS;
   if (!(slot.recorded == wanted)) {
     slot.recorded = vk::Recorded{};
-    r = record(ticket, input, band, params, dic_params, grid);
+    r = record(ticket, input, band, params, dic_params, grid, fixed);
     if (r == VK_SUCCESS) slot.recorded = wanted;
   }
   if (r == VK_SUCCESS) r = vkResetFences(device->handle(), 1, &slot.fence);
@@ -210,12 +249,13 @@ GpuStatus VulkanSgm::Impl::submit(const ImageView& left, const ImageView& right,
   slot.busy = true;
   slot.input = input;
   slot.grid = grid;
+  slot.fixed = fixed;
   next_slot = (next_slot + 1) % vk::kSlots;
   return GpuStatus::Ok;
 }
 
-GpuStatus VulkanSgm::Impl::collect(int ticket, float* disparity, std::size_t stride, GpuStageTimes* times,
-                                   const StripsOut* strips) {
+GpuStatus VulkanSgm::Impl::collect(int ticket, FrameOutput& out, GpuStageTimes* times) {
+  out = FrameOutput{};
   if (ticket < 0 || ticket >= vk::kSlots || !slots[static_cast<std::size_t>(ticket)].busy)
     return GpuStatus::InvalidInput;
   Slot& slot = slots[static_cast<std::size_t>(ticket)];
@@ -233,31 +273,28 @@ GpuStatus VulkanSgm::Impl::collect(int ticket, float* disparity, std::size_t str
     return fail(r);
   }
   slot.busy = false;
-  // A request the frame cannot answer: checked after the wait, so the slot is free again either way.
-  if ((strips && slot.input == Input::Rectified) || (!disparity && slot.input != Input::RawOnly))
-    return GpuStatus::InvalidInput;
-  // The download buffer: the disparity (floats, unpadded rows), then both packed strips, then the packed
-  // coarse left image (record()).
+  // The download buffer (record()): the fixed-point disparity (unpadded rows), then both packed strips,
+  // then the packed coarse left image; read where it lies.
   const auto* down = static_cast<const std::uint8_t*>(slot.download.mapped);
-  const std::size_t strips_at = static_cast<std::size_t>(width) * static_cast<std::size_t>(height) * 4;
+  const std::size_t strips_at = fixed_bytes();
   const bool coarse = slot.input == Input::RawCoarse;
-  if (disparity && slot.input != Input::RawOnly) {
-    const int w = coarse ? slot.grid.width : width, h = coarse ? slot.grid.height : height;
-    const std::size_t row_bytes = static_cast<std::size_t>(w) * sizeof(float);
-    vk::copy_rows(disparity, stride * sizeof(float), down, row_bytes, row_bytes, h);
+  if (slot.input != Input::RawOnly) {
+    DisparityView& v = out.disparity;
+    v.data = reinterpret_cast<const std::uint16_t*>(down);
+    v.width = coarse ? slot.grid.width : width;
+    v.height = coarse ? slot.grid.height : height;
+    v.stride = static_cast<std::size_t>(v.width);
+    v.offset_px = static_cast<float>(slot.fixed.base);
+    v.step_px = 1.0f / static_cast<float>(slot.fixed.scale);
   }
-  if (coarse && strips && strips->coarse_left)
-    vk::copy_rows(strips->coarse_left, strips->coarse_stride, down + strips_at + 2 * image_bytes,
-                  static_cast<std::size_t>((slot.grid.width + 3) / 4) * 4, static_cast<std::size_t>(slot.grid.width),
-                  slot.grid.height);
-  if (strips) {
-    const std::size_t packed_row = static_cast<std::size_t>(words_per_row) * 4;
-    for (int i = 0; i < 2; ++i) {
-      std::uint8_t* dst = i == 0 ? strips->left : strips->right;
-      if (dst)
-        vk::copy_rows(dst, strips->stride, down + strips_at + static_cast<std::size_t>(i) * image_bytes, packed_row,
-                      static_cast<std::size_t>(width), height);
-    }
+  if (slot.input != Input::Rectified) {
+    out.strip_left = down + strips_at;
+    out.strip_right = down + strips_at + image_bytes;
+    out.strip_stride = static_cast<std::size_t>(words_per_row) * 4;
+  }
+  if (coarse) {
+    out.coarse_left = down + strips_at + 2 * image_bytes;
+    out.coarse_stride = static_cast<std::size_t>((slot.grid.width + 3) / 4) * 4;
   }
   if (times) {
     *times = GpuStageTimes{};
@@ -271,6 +308,32 @@ GpuStatus VulkanSgm::Impl::collect(int ticket, float* disparity, std::size_t str
       };
       *times = GpuStageTimes{ms(0, 1), ms(1, 2), ms(2, 3), ms(3, 4), ms(4, 5), ms(5, 6), ms(6, 7), ms(7, 8)};
     }
+  }
+  return GpuStatus::Ok;
+}
+
+GpuStatus VulkanSgm::collect(int ticket, FrameOutput& out, GpuStageTimes* times) {
+  return impl_->collect(ticket, out, times);
+}
+
+GpuStatus VulkanSgm::collect(int ticket, float* disparity, std::size_t stride, GpuStageTimes* times,
+                             const StripsOut* strips) {
+  FrameOutput out;
+  const GpuStatus s = impl_->collect(ticket, out, times);
+  if (s != GpuStatus::Ok) return s;
+  // A request the frame cannot answer: checked after the wait, so the slot is free again either way.
+  if ((strips && !out.strip_left) || (!disparity && out.disparity.data)) return GpuStatus::InvalidInput;
+  if (disparity && out.disparity.data)
+    for (int y = 0; y < out.disparity.height; ++y)
+      out.disparity.decode_row(y, disparity + static_cast<std::size_t>(y) * stride);
+  if (strips && strips->coarse_left && out.coarse_left)
+    vk::copy_rows(strips->coarse_left, strips->coarse_stride, out.coarse_left, out.coarse_stride,
+                  static_cast<std::size_t>(out.disparity.width), out.disparity.height);
+  if (strips) {
+    for (auto [dst, src] : {std::pair{strips->left, out.strip_left}, std::pair{strips->right, out.strip_right}})
+      if (dst)
+        vk::copy_rows(dst, strips->stride, src, out.strip_stride, static_cast<std::size_t>(impl_->width),
+                      impl_->height);
   }
   return GpuStatus::Ok;
 }

@@ -30,25 +30,10 @@ Kernel KernelFactory::make(const std::uint32_t* spv, std::size_t bytes, std::uin
     auto mi = info_struct<VkShaderModuleCreateInfo>(VK_STRUCTURE_TYPE_SHADER_MODULE_CREATE_INFO);
     mi.codeSize = bytes;
     mi.pCode = spv;
-    VkShaderModule module = VK_NULL_HANDLE;
-    check(vkCreateShaderModule(d, &mi, nullptr, &module), "vkCreateShaderModule");
-    auto ci = info_struct<VkComputePipelineCreateInfo>(VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO);
-    ci.stage = info_struct<VkPipelineShaderStageCreateInfo>(VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO);
-    ci.stage.stage = VK_SHADER_STAGE_COMPUTE_BIT;
-    ci.stage.module = module;
-    ci.stage.pName = "main";
-    std::vector<VkSpecializationMapEntry> entries;
-    for (std::uint32_t i = 0; i < spec.size(); ++i)
-      entries.push_back(VkSpecializationMapEntry{i, i * 4, sizeof(std::int32_t)});
-    const VkSpecializationInfo spec_info{static_cast<std::uint32_t>(entries.size()), entries.data(),
-                                         spec.size() * sizeof(std::int32_t), spec.data()};
-    if (!spec.empty()) ci.stage.pSpecializationInfo = &spec_info;
-    ci.layout = k.layout;
-    ci.flags = flags;
-    VkResult r = device_.injected(VulkanCall::CreatePipeline);
-    if (r == VK_SUCCESS) r = vkCreateComputePipelines(d, VK_NULL_HANDLE, 1, &ci, nullptr, &k.pipeline);
-    vkDestroyShaderModule(d, module, nullptr);
-    check(r, "vkCreateComputePipelines");
+    check(vkCreateShaderModule(d, &mi, nullptr, &k.module), "vkCreateShaderModule");
+    k.device = &device_;
+    k.flags = flags;
+    check(variant(k, spec, k.pipeline), "vkCreateComputePipelines");
     auto ai = info_struct<VkDescriptorSetAllocateInfo>(VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO);
     ai.descriptorPool = pool_;
     ai.descriptorSetCount = 1;
@@ -86,8 +71,39 @@ void KernelFactory::write_set(VkDescriptorSet set, const Bindings& bindings) con
   vkUpdateDescriptorSets(device_.handle(), static_cast<std::uint32_t>(w.size()), w.data(), 0, nullptr);
 }
 
+VkResult variant(Kernel& k, const std::vector<std::int32_t>& spec, VkPipeline& out) {
+  out = VK_NULL_HANDLE;
+  for (const auto& [values, pipeline] : k.variants) {
+    if (values == spec) {
+      out = pipeline;
+      return VK_SUCCESS;
+    }
+  }
+  auto ci = info_struct<VkComputePipelineCreateInfo>(VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO);
+  ci.stage = info_struct<VkPipelineShaderStageCreateInfo>(VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO);
+  ci.stage.stage = VK_SHADER_STAGE_COMPUTE_BIT;
+  ci.stage.module = k.module;
+  ci.stage.pName = "main";
+  std::vector<VkSpecializationMapEntry> entries;
+  for (std::uint32_t i = 0; i < spec.size(); ++i)
+    entries.push_back(VkSpecializationMapEntry{i, i * 4, sizeof(std::int32_t)});
+  const VkSpecializationInfo spec_info{static_cast<std::uint32_t>(entries.size()), entries.data(),
+                                       spec.size() * sizeof(std::int32_t), spec.data()};
+  if (!spec.empty()) ci.stage.pSpecializationInfo = &spec_info;
+  ci.layout = k.layout;
+  ci.flags = k.flags;
+  VkPipeline pipeline = VK_NULL_HANDLE;
+  VkResult r = k.device->injected(VulkanCall::CreatePipeline);
+  if (r == VK_SUCCESS) r = vkCreateComputePipelines(k.device->handle(), VK_NULL_HANDLE, 1, &ci, nullptr, &pipeline);
+  if (r != VK_SUCCESS) return r;
+  k.variants.emplace_back(spec, pipeline);
+  out = pipeline;
+  return VK_SUCCESS;
+}
+
 void destroy(const Device& device, Kernel& k) {
-  vkDestroyPipeline(device.handle(), k.pipeline, nullptr);
+  for (const auto& v : k.variants) vkDestroyPipeline(device.handle(), v.second, nullptr);
+  vkDestroyShaderModule(device.handle(), k.module, nullptr);
   vkDestroyPipelineLayout(device.handle(), k.layout, nullptr);
   vkDestroyDescriptorSetLayout(device.handle(), k.set_layout, nullptr);
   k = Kernel{};

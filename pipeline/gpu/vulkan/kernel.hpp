@@ -8,6 +8,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <functional>
+#include <utility>
 #include <vector>
 
 #include "device.hpp"
@@ -28,8 +29,10 @@ struct FrameBuffers {
   // right view as wta.comp's keys.
   Buffer image_left, image_right, census_left, census_right, match_cost, disp_left, right_key, disparity;
   std::array<Buffer, kPathsMax> costs;
-  Buffer spline_left, spline_right, refined;  // DIC
-  Buffer raw_left, raw_right;                 // raw images to rectify (set_rectification)
+  Buffer spline_left, spline_right;  // DIC
+  // The 16-bit fixed-point disparity (DisparityView), the matcher's or the DIC's: what the host downloads.
+  Buffer fixed;
+  Buffer raw_left, raw_right;  // raw images to rectify (set_rectification)
 };
 
 // The buffers of each binding of a kernel (several: an array of descriptors), from a slot's FrameBuffers.
@@ -39,10 +42,20 @@ using BindingsOf = std::function<Bindings(const FrameBuffers&)>;
 struct Kernel {
   VkDescriptorSetLayout set_layout = VK_NULL_HANDLE;
   VkPipelineLayout layout = VK_NULL_HANDLE;
-  VkPipeline pipeline = VK_NULL_HANDLE;
+  VkPipeline pipeline = VK_NULL_HANDLE;        // of the specialization values given to make()
   std::array<VkDescriptorSet, kSlots> sets{};  // a slot's FrameBuffers
   BindingsOf bindings_of;                      // what the sets bind, for rebind()
+  // Kept to build variants (variant()): the shader and the pipelines of other specialization values.
+  const Device* device = nullptr;
+  VkShaderModule module = VK_NULL_HANDLE;
+  VkPipelineCreateFlags flags = 0;
+  std::vector<std::pair<std::vector<std::int32_t>, VkPipeline>> variants;
 };
+
+// The pipeline of `k` for the specialization values `spec` (constants 0, 1, ...), built on its first use
+// and kept while the kernel lives (a new disparity count costs one pipeline build, once): VK_SUCCESS, or
+// the build's error, `out` then VK_NULL_HANDLE.
+VkResult variant(Kernel& k, const std::vector<std::int32_t>& spec, VkPipeline& out);
 
 // Makes kernels on one device from one descriptor pool, binding each slot's buffers.
 class KernelFactory {
@@ -70,6 +83,18 @@ class KernelFactory {
 void destroy(const Device& device, Kernel& k);
 
 inline std::uint32_t groups(int n, int size) { return static_cast<std::uint32_t>((n + size - 1) / size); }
+
+// Binds `pipeline` (k.pipeline or one of its variants), the slot's set and the push constants, and
+// dispatches x * y * z workgroups.
+template <class Push>
+void dispatch(VkCommandBuffer cb, int slot, const Kernel& k, VkPipeline pipeline, const Push& push, std::uint32_t x,
+              std::uint32_t y, std::uint32_t z) {
+  vkCmdBindPipeline(cb, VK_PIPELINE_BIND_POINT_COMPUTE, pipeline);
+  vkCmdBindDescriptorSets(cb, VK_PIPELINE_BIND_POINT_COMPUTE, k.layout, 0, 1, &k.sets[static_cast<std::size_t>(slot)],
+                          0, nullptr);
+  vkCmdPushConstants(cb, k.layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(Push), &push);
+  vkCmdDispatch(cb, x, y, z);
+}
 
 template <class Push>
 void dispatch(VkCommandBuffer cb, int slot, const Kernel& k, const Push& push, std::uint32_t x, std::uint32_t y,

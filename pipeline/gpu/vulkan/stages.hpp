@@ -6,7 +6,7 @@
 //   census_stage.cpp     9x7 census of both images (census.comp)
 //   cost_stage.cpp       matching costs, four disparities a word (cost.comp)
 //   aggregate_stage.cpp  path aggregation, every direction (aggregate.comp)
-//   wta_stage.cpp        winner-takes-all, uniqueness, sub-pixel, right view (wta.comp)
+//   wta_stage.cpp        winner-takes-all, uniqueness, sub-pixel, right view: a row walker (wta.comp)
 //   lr_median_stage.cpp  left-right check, 3x3 median (lr_median.comp)
 //   dic_stage.cpp        B-spline prefilter and DIC (bspline.comp, dic.comp)
 // A stage records dispatches only; frame.cpp orders them, with barriers and timestamps. Private to rutd_gpu.
@@ -23,6 +23,17 @@ namespace rutd::gpu::vk {
 struct ImageSize {
   int width = 0, height = 0, words_per_row = 0;
 };
+
+// The fixed point of a frame's downloaded disparity (DisparityView): px = base + value / scale.
+struct FixedPoint {
+  int base = 0;    // px
+  int scale = 64;  // values per px: a power of two, at least 64
+};
+
+// The fixed point of a frame's disparity for its band and DIC (vulkan_sgm.hpp, DisparityView): the finest
+// step, a power of two of at most 1/64 px, whose range holds every disparity the matcher or the DIC can give
+// (frame.cpp).
+FixedPoint fixed_point(SgmBand band, const DicKernelConfig* dic, int height);
 
 // The raw rows uploaded for rectification: raw_width x raw_height images of which rows [row0, row0 +
 // rows) are uploaded, packed in rows of words_per_row words.
@@ -81,35 +92,42 @@ class CostStage {
 
 class AggregateStage {
  public:
-  // threads: the workgroup size (the device's subgroup size for the fast path); max_disparities: the
-  // most the matcher takes.
-  void create(const KernelFactory& f, int threads, int max_disparities);
-  // For a new disparity count: the kernel again where its words per invocation change, else rebound.
-  void resize(const Device& device, const KernelFactory& f, int max_disparities);
-  void record(VkCommandBuffer cb, int slot, ImageSize image, SgmBand band, const SgmConfig& params) const;
+  // threads: the workgroup size (the device's subgroup size for the fast path); half: the step in packed
+  // half floats (the device's shaderFloat16), else in 32-bit integers.
+  void create(const KernelFactory& f, int threads, bool half);
+  void rebind(const KernelFactory& f) const { f.rebind(kernel_); }
+  // Builds the pipeline of a new disparity count on its first use: VK_SUCCESS or that build's error.
+  VkResult record(VkCommandBuffer cb, int slot, ImageSize image, SgmBand band, const SgmConfig& params);
   void destroy(const Device& device) { vk::destroy(device, kernel_); }
 
  private:
   Kernel kernel_;
-  int threads_ = 0, words_each_ = 0;
+  int threads_ = 0;
 };
 
 class WtaStage {
  public:
-  void create(const KernelFactory& f);
+  // threads: the workgroup size (the device's subgroup size for the fast path); segment: px of a row per
+  // workgroup, 0 whole rows.
+  void create(const KernelFactory& f, int threads, int segment);
   void rebind(const KernelFactory& f) const { f.rebind(kernel_); }
-  void record(VkCommandBuffer cb, int slot, ImageSize image, SgmBand band, const SgmConfig& params) const;
+  // Builds the pipeline of a new disparity count or number of directions on its first use: VK_SUCCESS or
+  // that build's error.
+  VkResult record(VkCommandBuffer cb, int slot, ImageSize image, SgmBand band, const SgmConfig& params);
   void destroy(const Device& device) { vk::destroy(device, kernel_); }
 
  private:
   Kernel kernel_;
+  int threads_ = 0, segment_ = 0;
 };
 
 class LrMedianStage {
  public:
   void create(const KernelFactory& f);
   void rebind(const KernelFactory& f) const { f.rebind(kernel_); }
-  void record(VkCommandBuffer cb, int slot, ImageSize image, SgmBand band, const SgmConfig& params) const;
+  // float_out: FrameBuffers::disparity in px (the DIC's start); fixed_out: FrameBuffers::fixed in `fixed`.
+  void record(VkCommandBuffer cb, int slot, ImageSize image, SgmBand band, const SgmConfig& params, bool float_out,
+              bool fixed_out, FixedPoint fixed) const;
   void destroy(const Device& device) { vk::destroy(device, kernel_); }
 
  private:
@@ -123,7 +141,8 @@ class DicStage {
   void rebind(const KernelFactory& f) const;
   // The B-spline coefficients of both images (with the census: it reads the same images).
   void record_prefilter(VkCommandBuffer cb, int slot, ImageSize image) const;
-  void record(VkCommandBuffer cb, int slot, ImageSize image, const DicKernelConfig& d) const;
+  // Writes every pixel of FrameBuffers::fixed in `fixed`.
+  void record(VkCommandBuffer cb, int slot, ImageSize image, const DicKernelConfig& d, FixedPoint fixed) const;
   void destroy(const Device& device);
 
  private:

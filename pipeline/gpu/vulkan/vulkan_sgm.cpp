@@ -41,9 +41,8 @@ vk::KernelFactory VulkanSgm::Impl::kernels() const {
 void VulkanSgm::Impl::free_buffers() {
   for (Slot& s : slots) {
     vk::FrameBuffers& f = s.dev;
-    for (Buffer* b :
-         {&f.image_left, &f.image_right, &f.census_left, &f.census_right, &f.match_cost, &f.disp_left, &f.right_key,
-          &f.disparity, &f.spline_left, &f.spline_right, &f.refined, &f.raw_left, &f.raw_right})
+    for (Buffer* b : {&f.image_left, &f.image_right, &f.census_left, &f.census_right, &f.match_cost, &f.disp_left,
+                      &f.right_key, &f.disparity, &f.spline_left, &f.spline_right, &f.fixed, &f.raw_left, &f.raw_right})
       vk::destroy(*device, *b);
     for (Buffer& b : f.costs) vk::destroy(*device, b);
     vk::destroy(*device, s.upload);
@@ -80,11 +79,12 @@ void VulkanSgm::Impl::allocate() {
     f.census_right = vk::make_buffer(dev, pixels * 8, storage, false);
     f.match_cost = vk::make_buffer(dev, cost_bytes, storage, false);
     for (Buffer& b : f.costs) b = vk::make_buffer(dev, cost_bytes, storage, false);
-    for (Buffer* b : {&f.disp_left, &f.right_key, &f.disparity, &f.spline_left, &f.spline_right, &f.refined})
+    for (Buffer* b : {&f.disp_left, &f.right_key, &f.disparity, &f.spline_left, &f.spline_right})
       *b = vk::make_buffer(dev, pixels * 4, storage, false);
+    f.fixed = vk::make_buffer(dev, fixed_bytes(), storage, false);
     s.upload = vk::make_buffer(dev, image_bytes * 2, VK_BUFFER_USAGE_TRANSFER_SRC_BIT, true);
-    // The disparity, both strips, and (band estimate) the coarse left image.
-    s.download = vk::make_buffer(dev, pixels * 4 + 3 * image_bytes, VK_BUFFER_USAGE_TRANSFER_DST_BIT, true);
+    // The fixed-point disparity, both strips, and (band estimate) the coarse left image.
+    s.download = vk::make_buffer(dev, fixed_bytes() + 3 * image_bytes, VK_BUFFER_USAGE_TRANSFER_DST_BIT, true);
   }
 }
 
@@ -124,8 +124,14 @@ void VulkanSgm::Impl::setup() {
   const int threads = options.aggregate_threads > 0
                           ? options.aggregate_threads
                           : static_cast<int>(std::clamp<std::uint32_t>(dev.subgroup_size(), 4, 128));
-  aggregate.create(f, threads, max_disparities);
-  wta.create(f);
+  if (options.aggregate_half && !dev.info().half)
+    throw GpuError("the aggregation in half floats needs shaderFloat16, which the device lacks");
+  aggregate.create(f, threads, options.aggregate_half);
+  // wta.comp: a workgroup of one subgroup as the device reports it.
+  const int wta_threads = options.wta_threads > 0
+                              ? options.wta_threads
+                              : static_cast<int>(std::clamp<std::uint32_t>(dev.subgroup_size(), 4, 128));
+  wta.create(f, wta_threads, options.wta_segment);
   lr_median.create(f);
   dic.create(f, dev.subgroup_size());
 }
@@ -150,6 +156,10 @@ VulkanSgm::VulkanSgm(const std::string& device, int width, int height, int max_d
   m.max_disparities = max_disparities;
   if (options.aggregate_threads < 0 || options.aggregate_threads > 128)
     throw GpuError("VulkanSgm: aggregate_threads " + std::to_string(options.aggregate_threads) + " is not 0..128");
+  if (options.wta_threads < 0 || options.wta_threads > 128)
+    throw GpuError("VulkanSgm: wta_threads " + std::to_string(options.wta_threads) + " is not 0..128");
+  if (options.wta_segment != 0 && options.wta_segment < 16)
+    throw GpuError("VulkanSgm: wta_segment " + std::to_string(options.wta_segment) + " is not 0 or >= 16");
   m.options = options;
   m.device = std::make_unique<vk::Device>(device, options.faults);
   const int timeout_ms = options.timeout_ms > 0 ? options.timeout_ms : m.device->info().type == "cpu" ? 300000 : 2000;
@@ -184,7 +194,7 @@ void VulkanSgm::resize(int width, int height, int max_disparities) {
     const vk::KernelFactory f = m.kernels();
     m.census.rebind(f);
     m.cost.rebind(f);
-    m.aggregate.resize(dev, f, max_disparities);
+    m.aggregate.rebind(f);
     m.wta.rebind(f);
     m.lr_median.rebind(f);
     m.dic.rebind(f);
@@ -262,11 +272,6 @@ GpuStatus VulkanSgm::submit_coarse(const ImageView& left_raw, const ImageView& r
   Impl& m = *impl_;
   return m.submit(left_raw, right_raw, vk::Input::RawCoarse, band, params, nullptr, ticket,
                   coarse_grid(m.width, m.height, scale));
-}
-
-GpuStatus VulkanSgm::collect(int ticket, float* disparity, std::size_t stride, GpuStageTimes* times,
-                             const StripsOut* strips) {
-  return impl_->collect(ticket, disparity, stride, times, strips);
 }
 
 GpuStatus VulkanSgm::compute(const ImageView& left, const ImageView& right, SgmBand band, const SgmConfig& params,
