@@ -63,6 +63,16 @@ class CountingSink final : public MeasurementSink {
 
 double ms(std::int64_t ns) { return static_cast<double>(ns) * 1e-6; }
 
+// `text` as the inside of a JSON string.
+std::string json_escaped(const std::string& text) {
+  std::string out;
+  for (const char c : text) {
+    if (c == '"' || c == '\\') out += '\\';
+    if (static_cast<unsigned char>(c) >= 0x20) out += c;
+  }
+  return out;
+}
+
 // CPU time of the whole process (every thread: source, stages, OpenCV's workers), ms.
 double process_cpu_ms() {
   rusage u{};
@@ -97,6 +107,8 @@ void run(const char* mode, const char* regime, const SyntheticRenderer& renderer
   // the rate a machine of that many idle cores could reach, whatever else shares this one.
   const double cpu_per_pair = s.published > 0 ? cpu_ms / static_cast<double>(s.published) : 0.0;
   const StripRoi strip = measurer.strip();
+  // Where the engine computed (its device and driver, or the CPU and why), at the end of the run.
+  const std::string device = stages.engine().device();
   if (o.json) {
     // depth_err_mm: the worst |depth - truth| over the OK measurements (null when there was none).
     const std::string err = sink.ok ? fmt::format("{:.4f}", sink.worst_error_mm) : "null";
@@ -104,15 +116,21 @@ void run(const char* mode, const char* regime, const SyntheticRenderer& renderer
         "{\"mode\":\"%s\",\"run\":\"%s\",\"engine\":\"%s\",\"dic\":%s,\"width\":%d,\"height\":%d,"
         "\"rows\":%d,\"hz\":%.2f,\"p50_ms\":%.3f,\"p99_ms\":%.3f,\"depth_err_mm\":%s,\"published\":%llu,"
         "\"ok\":%llu,\"dropped\":%llu,\"rectify_p50_ms\":%.3f,\"match_p50_ms\":%.3f,"
-        "\"extract_p50_ms\":%.3f,\"cpu_ms_per_pair\":%.3f}\n",
+        "\"extract_p50_ms\":%.3f,\"cpu_ms_per_pair\":%.3f,\"device\":\"%s\"}\n",
         mode, regime, std::string(to_string(mc.engine)).c_str(), mc.dic ? "true" : "false",
         renderer.calibration().image_size.width, renderer.calibration().image_size.height, strip.rows, hz,
         ms(s.end_to_end.p50_ns), ms(s.end_to_end.p99_ns), err.c_str(), static_cast<unsigned long long>(s.published),
         static_cast<unsigned long long>(sink.ok), static_cast<unsigned long long>(s.dropped_total()),
-        ms(s.stage_latency[1].p50_ns), ms(s.stage_latency[2].p50_ns), ms(s.stage_latency[3].p50_ns), cpu_per_pair);
+        ms(s.stage_latency[1].p50_ns), ms(s.stage_latency[2].p50_ns), ms(s.stage_latency[3].p50_ns), cpu_per_pair,
+        json_escaped(device).c_str());
     std::fflush(stdout);
     return;
   }
+  // The device once, and again should a run end elsewhere (the GPU engine falling back to the CPU).
+  static std::string last_device;
+  if (device != last_device)
+    std::printf("engine %s on %s\n", std::string(to_string(mc.engine)).c_str(), device.c_str());
+  last_device = device;
   std::printf(
       "%-6s %-10s rows %3d..%3d  published %4llu (%3llu ok, depth %.2f mm, worst error %.3f mm)  %7.2f Hz  "
       "e2e p50 %8.2f p99 %8.2f ms | rectify %6.2f match %8.2f extract %6.2f ms (p50) | dropped %llu | cpu %.2f "
@@ -173,7 +191,7 @@ void add_bench_command(CLI::App& app, int& exit_code) {
   cmd->add_flag("--no-dic", *no_dic, "No sub-pixel refinement");
   cmd->add_flag("--json", o->json,
                 "One JSON object per run on stdout (mode, run, engine, dic, width, height, rows, hz, "
-                "p50_ms, p99_ms, depth_err_mm, ...) instead of the text table");
+                "p50_ms, p99_ms, depth_err_mm, ..., device) instead of the text table");
   // The seed paper's tables and the evaluation of a user's own pair (bench_tables.cpp, bench_pair.cpp).
   auto tables = std::make_shared<BenchTablesOptions>();
   auto pair = std::make_shared<BenchPairOptions>();

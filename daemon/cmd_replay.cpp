@@ -111,12 +111,15 @@ int run_replay(const ReplayOptions& o) {
   SinkFanout sinks(outputs);
   ReplayStatus status(live.status_period, live.no_frame_timeout);
 
-  spdlog::info("replaying {} with engine {}{}", o.dir, to_string(config.engine), config.dic ? " + DIC" : "");
   RunSummary summary;
   // The stages one after the other (StereoMeasurer::measure does the same), keeping each pair's strips,
   // disparity and cross-section for the sinks.
   FrameWork work;
   MatchContext context = measurer.make_match_context();
+  // Which device computes (the GPU engine's, or the CPU and why), again at the end if that changed.
+  const std::string device = context.engine->device();
+  spdlog::info("replaying {} with engine {}{} on {}", o.dir, to_string(config.engine), config.dic ? " + DIC" : "",
+               device);
   RutWorkspace rut_ws;
   StereoFrame& frame = work.frame;
   std::uint64_t unreadable = 0, done = 0;
@@ -162,6 +165,8 @@ int run_replay(const ReplayOptions& o) {
   }
   status.finish(sinks);
   progress.clear();
+  if (context.engine->device() != device)
+    spdlog::warn("the engine left {} during the replay: now on {}", device, context.engine->device());
   if (output_failed()) return 1;
   if (plots) {
     const PlotSinkStats ps = plots->finish();

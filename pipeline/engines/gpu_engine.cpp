@@ -31,9 +31,10 @@ void log_fallback(const std::string& reason) {
 class GpuEngine : public DisparityEngine {
  public:
   GpuEngine(const EngineConfig& config, std::unique_ptr<gpu::VulkanSgm> probe)
-      : config_(config), params_(sgm_params(config)), sgm_(std::move(probe)) {}
+      : config_(config), params_(sgm_params(config)), sgm_(std::move(probe)), device_(gpu::describe(sgm_->device())) {}
   // SgmRef once the engine has fallen back to the reference.
   EngineKind kind() const override { return fallback_ ? EngineKind::SgmRef : EngineKind::Gpu; }
+  std::string device() const override { return fallback_ ? fallback_->device() : device_; }
 
   void compute(const cv::Mat& left, const cv::Mat& right, DisparityBand band, cv::Mat& disparity) override {
     run(left, right, band, nullptr, disparity);
@@ -140,15 +141,14 @@ class GpuEngine : public DisparityEngine {
 
   // Device buffers for `size` and at least `disparities`, and, with a geometry, its maps loaded. Buffers are
   // sized for the strip and the widest band seen; a new size or a wider band reallocates once (start-up,
-  // or the band estimate widening), never per frame in steady state. False after falling back.
+  // or the band estimate widening) on the same device, never per frame in steady state. False after
+  // falling back.
   bool ready(cv::Size size, int disparities, const StereoGeometry* geometry) {
     try {
       if (sgm_->width() != size.width || sgm_->height() != size.height || disparities > max_disparities_) {
         max_disparities_ = std::max({max_disparities_, disparities, 128});
-        sgm_.reset();
         maps_ = nullptr;
-        sgm_ = std::make_unique<gpu::VulkanSgm>(config_.gpu_device, size.width, size.height,
-                                                std::min(max_disparities_, gpu::kMaxDisparities));
+        sgm_->resize(size.width, size.height, std::min(max_disparities_, gpu::kMaxDisparities));
       }
       if (geometry && maps_ != geometry) {
         const cv::Size raw = geometry->raw_size();
@@ -189,7 +189,7 @@ class GpuEngine : public DisparityEngine {
   // A device that failed once is not trusted again: this frame and every later one go to the reference.
   void give_up(const std::string& reason) {
     log_fallback(reason);
-    fallback_ = std::make_unique<SgmReferenceEngine>(config_);
+    fallback_ = std::make_unique<SgmReferenceEngine>(config_, reason);
     sgm_.reset();
     maps_ = nullptr;
   }
@@ -202,6 +202,7 @@ class GpuEngine : public DisparityEngine {
   EngineConfig config_;
   gpu::SgmConfig params_;
   std::unique_ptr<gpu::VulkanSgm> sgm_;
+  std::string device_;  // gpu::describe() of sgm_'s device
   std::unique_ptr<SgmReferenceEngine> fallback_;
   int max_disparities_ = 0;
   // The geometry whose maps sgm_ holds (set_rectification); the caller keeps it alive and unchanged while
@@ -247,7 +248,12 @@ gpu::DicKernelConfig dic_params(const DicConfig& c, int rows) {
   return p;
 }
 
-SgmReferenceEngine::SgmReferenceEngine(const EngineConfig& config) : params_(sgm_params(config)) {}
+SgmReferenceEngine::SgmReferenceEngine(const EngineConfig& config, std::string gpu_unavailable)
+    : params_(sgm_params(config)), gpu_unavailable_(std::move(gpu_unavailable)) {}
+
+std::string SgmReferenceEngine::device() const {
+  return gpu_unavailable_.empty() ? "CPU" : "CPU (the GPU engine runs as sgmref: " + gpu_unavailable_ + ")";
+}
 
 void SgmReferenceEngine::compute(const cv::Mat& left, const cv::Mat& right, DisparityBand band, cv::Mat& disparity) {
   disparity.create(left.size(), CV_32FC1);
@@ -261,20 +267,27 @@ void SgmReferenceEngine::compute(const cv::Mat& left, const cv::Mat& right, Disp
                 disparity.ptr<float>(y));
 }
 
-std::unique_ptr<DisparityEngine> make_gpu_engine(const EngineConfig& config) {
+std::unique_ptr<DisparityEngine> make_gpu_engine(const EngineConfig& config, gpu::VulkanFaults* faults) {
   sgm_params(config);  // bad parameters throw, whichever engine runs
+  std::string reason;
 #ifdef RUTD_HAVE_GPU
   try {
-    // A small probe: finds the device, builds the pipelines; the first frame sizes the buffers.
-    auto probe = std::make_unique<gpu::VulkanSgm>(config.gpu_device, 16, 1, 2);
-    return std::make_unique<GpuEngine>(config, std::move(probe));
+    // The engine's one device, its pipelines built here; the first frame sizes the buffers (resize()).
+    gpu::VulkanSgmOptions options;
+    options.faults = faults;
+    auto sgm = std::make_unique<gpu::VulkanSgm>(config.gpu_device, 16, 1, 2, options);
+    // pipeline/ has no logger; stderr reaches the journal under systemd.
+    std::fprintf(stderr, "rutd: GPU engine on %s\n", gpu::describe(sgm->device()).c_str());
+    return std::make_unique<GpuEngine>(config, std::move(sgm));
   } catch (const gpu::GpuError& e) {
-    log_fallback(e.what());
+    reason = e.what();
   }
 #else
-  log_fallback("built without Vulkan");
+  (void)faults;
+  reason = "built without Vulkan";
 #endif
-  return std::make_unique<SgmReferenceEngine>(config);
+  log_fallback(reason);
+  return std::make_unique<SgmReferenceEngine>(config, reason);
 }
 
 }  // namespace rutd

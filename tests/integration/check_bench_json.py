@@ -7,7 +7,8 @@ import sys
 
 MAX_ERR_MM = float(sys.argv[2]) if len(sys.argv) > 2 else 0.5
 KEYS = {"mode": str, "run": str, "engine": str, "dic": bool, "width": int, "height": int, "rows": int,
-        "hz": (int, float), "p50_ms": (int, float), "p99_ms": (int, float), "depth_err_mm": (int, float, type(None))}
+        "hz": (int, float), "p50_ms": (int, float), "p99_ms": (int, float), "depth_err_mm": (int, float, type(None)),
+        "device": str}
 
 
 def main() -> int:

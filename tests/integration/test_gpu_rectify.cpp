@@ -11,7 +11,8 @@
 //   - a jump of the terrain (two rigs sharing one calibration, 350 and 270 mm high) outside the kept band:
 //     the band is estimated again on the device and every frame is measured;
 //   - 16-bit frames, which the device does not take, are rectified on the CPU and measured as well.
-// The engine tests skip when no Vulkan device is usable (the engine then falls back to the CPU).
+// The engine tests skip only without a Vulkan driver (gpu_test_support.hpp); an engine that falls back to
+// the CPU fails them.
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -21,6 +22,7 @@
 #include <gtest/gtest.h>
 
 #include "gpu/rectify.hpp"
+#include "gpu_test_support.hpp"
 #include "jump_rigs.hpp"
 #include "measurement/measurer.hpp"
 #include "synthetic/synthetic_renderer.hpp"
@@ -102,14 +104,15 @@ TEST(GpuRectify, ReferenceResamplesAsTheCpuRectifier) {
 }
 
 TEST(GpuRectify, EngineRectifiesOnItsDeviceAsTheReferenceAndMeasuresAsFromCpuStrips) {
+  RUTD_SKIP_WITHOUT_VULKAN_DRIVER();
   SyntheticRendererConfig config;
   config.rut.depth_mm = 40;
   const SyntheticRenderer renderer(config);
   const StereoMeasurer device(renderer.calibration(), gpu_config(true));
   const StereoMeasurer host(renderer.calibration(), gpu_config(false));
   MatchContext device_context = device.make_match_context(), host_context = host.make_match_context();
-  if (device_context.engine->kind() != EngineKind::Gpu)
-    GTEST_SKIP() << "needs a usable Vulkan device (lavapipe will do)";
+  test::expect_on_gpu(*device_context.engine);
+  test::expect_on_gpu(*host_context.engine);
   const StereoGeometry& g = device.geometry();
   RutWorkspace ws;
   int checked = 0;
@@ -158,9 +161,12 @@ TEST(GpuRectify, EngineRectifiesOnItsDeviceAsTheReferenceAndMeasuresAsFromCpuStr
     ++checked;
   }
   EXPECT_EQ(checked, 4);
+  test::expect_on_gpu(*device_context.engine);
+  test::expect_on_gpu(*host_context.engine);
 }
 
 TEST(GpuRectify, BandFollowsAJumpOnTheDevice) {
+  RUTD_SKIP_WITHOUT_VULKAN_DRIVER();
   const test::JumpRigs rigs;
   const SyntheticRenderer &high_renderer = rigs.high, &low_renderer = rigs.low;
   StereoMeasurer measurer(high_renderer.calibration(), gpu_config(true));
@@ -173,7 +179,6 @@ TEST(GpuRectify, BandFollowsAJumpOnTheDevice) {
     r.render(i, frame);
     const RutMeasurement m = measurer.measure(frame.left, frame.right);
     const MeasurementDiagnostics& d = measurer.diagnostics();
-    if (i == 0 && !d.rectified_on_device) GTEST_SKIP() << "needs a usable Vulkan device (lavapipe will do)";
     on_device.push_back(d.band_on_device);
     std::printf("frame %zu (%s): band %d+%d %s, depth %.3f mm (truth %.3f)\n", i, is_low[i] ? "low" : "high",
                 d.band.min_disparity, d.band.num_disparities,
@@ -192,6 +197,7 @@ TEST(GpuRectify, BandFollowsAJumpOnTheDevice) {
 }
 
 TEST(GpuRectify, SixteenBitFramesAreRectifiedOnTheCpu) {
+  RUTD_SKIP_WITHOUT_VULKAN_DRIVER();
   SyntheticRendererConfig config;
   config.bit_depth = 16;
   config.rut.depth_mm = 50;

@@ -1,7 +1,8 @@
 // The DIC as the GPU engine runs it (pipeline/gpu/: its C++ reference, and the Vulkan engine end to end)
 // against images with KNOWN fractional disparities (known_disparity.hpp, made independently of
 // the code under test), and against the CPU DIC of dic_refine.hpp on the same initial disparities: per
-// pixel, and with column windows (one window per column and row block, the measurer's default).
+// pixel, and with column windows (one window per column and row block, the measurer's default). The engine
+// tests skip only without a Vulkan driver (gpu_test_support.hpp); an engine that falls back fails them.
 #include <cmath>
 #include <cstdio>
 #include <random>
@@ -13,6 +14,7 @@
 #include "engines/disparity_engine.hpp"
 #include "engines/engine_factory.hpp"
 #include "gpu/dic.hpp"
+#include "gpu_test_support.hpp"
 #include "known_disparity.hpp"
 #include "refinement/dic_refine.hpp"
 
@@ -84,7 +86,10 @@ TEST(GpuDic, ReferenceRemovesPixelLockingLikeTheCpuDic) {
 }
 
 TEST(GpuDic, EngineRefinesOnTheDeviceAsTheReference) {
+  RUTD_SKIP_WITHOUT_VULKAN_DRIVER();
   auto engine = make_engine(EngineKind::Gpu);
+  test::expect_on_gpu(*engine);
+  int checked = 0;
   for (const Truth& t : kTruths) {
     const Pair pair = render_pair(t.d0, t.slope, kStrip, t.seed);
     DicConfig config;
@@ -93,8 +98,8 @@ TEST(GpuDic, EngineRefinesOnTheDeviceAsTheReference) {
     config.row_end = 44;
     cv::Mat refined;
     DicStats stats;
-    if (!engine->compute_refined(pair.left, pair.right, {16, 48}, config, refined, stats))
-      GTEST_SKIP() << "no usable Vulkan device: the GPU engine runs as sgmref, which does not refine";
+    ASSERT_TRUE(engine->compute_refined(pair.left, pair.right, {16, 48}, config, refined, stats))
+        << "the GPU engine did not refine on its device: " << engine->device();
     cv::Mat initial;
     make_cpu_engine(EngineKind::SgmRef)->compute(pair.left, pair.right, {16, 48}, initial);
     gpu::DicKernelConfig p;
@@ -110,7 +115,10 @@ TEST(GpuDic, EngineRefinesOnTheDeviceAsTheReference) {
     EXPECT_LE(one_side, stats.refined / 200) << t.d0;
     EXPECT_GT(stats.refined, 0) << t.d0;
     EXPECT_LT(e.rms, 0.05) << t.d0;
+    ++checked;
   }
+  EXPECT_EQ(checked, static_cast<int>(std::size(kTruths)));
+  test::expect_on_gpu(*engine);
 }
 
 // Column windows on a strip whose disparity slopes across and down it: rows [row_begin, row_end) of
@@ -208,14 +216,17 @@ TEST(GpuDic, ReferenceColumnWindowsAreTheCpuColumnWindows) {
 }
 
 TEST(GpuDic, EngineRefinesColumnWindowsOnTheDeviceAsTheReference) {
+  RUTD_SKIP_WITHOUT_VULKAN_DRIVER();
   auto engine = make_engine(EngineKind::Gpu);
+  test::expect_on_gpu(*engine);
+  int checked = 0;
   for (const ColumnCase& c : kColumnCases) {
     const Pair pair = render_pair(c.d0, c.slope, c.size, c.seed, 0.7, c.slope_y);
     const DicConfig config = column_config(c);
     cv::Mat refined;
     DicStats stats;
-    if (!engine->compute_refined(pair.left, pair.right, {16, 48}, config, refined, stats))
-      GTEST_SKIP() << "no usable Vulkan device: the GPU engine runs as sgmref, which does not refine";
+    ASSERT_TRUE(engine->compute_refined(pair.left, pair.right, {16, 48}, config, refined, stats))
+        << "the GPU engine did not refine on its device: " << engine->device();
     cv::Mat initial;
     make_cpu_engine(EngineKind::SgmRef)->compute(pair.left, pair.right, {16, 48}, initial);
     const gpu::DicKernelConfig p = column_params(c);
@@ -232,7 +243,10 @@ TEST(GpuDic, EngineRefinesColumnWindowsOnTheDeviceAsTheReference) {
     EXPECT_LE(std::abs(stats.refined - windows), windows / 200) << c.seed;
     EXPECT_EQ(column_windows_refined(refined, p).second, 0) << c.seed;
     EXPECT_LT(rms, 0.03) << c.seed;
+    ++checked;
   }
+  EXPECT_EQ(checked, static_cast<int>(std::size(kColumnCases)));
+  test::expect_on_gpu(*engine);
 }
 
 }  // namespace

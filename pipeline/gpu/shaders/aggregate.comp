@@ -8,30 +8,47 @@
 //   L(p, d) = C(p, d) + min(L(p-r, d), L(p-r, d-1) + P1, L(p-r, d+1) + P1, min_k L(p-r, k) + P2) - min_k L(p-r, k)
 // L <= 64 + P2, and the host keeps P2 <= 191 (kMaxP2), so L fits a byte.
 //
+// Disparities past the band cost 255 (cost.comp), so their L stays at least 255 while the band's minimum
+// is at most 64 (the L of the last step's best d is its cost): they never become the minimum and their
+// L + P1 never undercuts min L + P2, so the band's L are the reference's without a test per disparity.
+// Their bytes are not used downstream.
+//
 // Each step depends on the last, so the walk is bound by the latency of a step. An invocation keeps its
 // own L in registers; only the L at the edges of its block and the minimum cross invocations. When the
 // workgroup is one subgroup (kThreads is the device's subgroup size) they cross by shuffles and a
 // subgroup minimum: no barrier, no shared memory. Where the device runs it as several subgroups (a
 // driver free to pick a smaller size), they cross through shared memory with one barrier a step: the
 // same arithmetic, slower. The costs of the next kRing steps are loaded while the current kRing steps run
-// (the loops over the ring and an invocation's disparities are unrolled, so both live in registers).
+// (the loops over the ring and an invocation's disparities are unrolled, so both live in registers); the
+// addresses advance by a constant per step.
+//
+// Built twice (pipeline/gpu/CMakeLists.txt): with HALF defined, the step runs in packed half floats, two
+// disparities an operation (f16vec2; the device's shaderFloat16). Every value is then an integer below
+// 2,048, which half floats hold exactly: each L is kept as 1024 + L, whose bits are 0x6400 | L, so a cost
+// byte becomes a half by an OR and an L byte is the half's low byte.
 #extension GL_KHR_shader_subgroup_basic : require
 #extension GL_KHR_shader_subgroup_arithmetic : require
 #extension GL_KHR_shader_subgroup_shuffle_relative : require
 #extension GL_EXT_control_flow_attributes : require
-// Set when the pipeline is made: the subgroup size the device reports, and
-// kWords = num_disparities / 4 / kThreads rounded up, for the most disparities the matcher takes.
+#ifdef HALF
+#extension GL_EXT_shader_explicit_arithmetic_types_float16 : require
+const bool kHalf = true;
+#else
+const bool kHalf = false;
+#endif
+// Set when the pipeline is made: the workgroup size (the device's subgroup size for the fast path) and
+// kWords = the band's words of four disparities / kThreads rounded up.
 layout(local_size_x_id = 0) in;
 layout(constant_id = 0) const int kThreads = 32;
 layout(constant_id = 1) const int kWords = 1;
 layout(std430, binding = 0) readonly buffer Cost { uint cost[]; };  // cost.comp's, [y][x][word]
 // One buffer per direction (each within the device's storage-buffer range), [y][x][word], 4 bytes a word;
-// words per pixel: num_disparities / 16 rounded up, times 4 (the bytes past num_disparities are 0xFF).
+// words per pixel: num_disparities / 16 rounded up, times 4.
 layout(std430, binding = 1) writeonly buffer PathCost { uint w[]; } path_cost[8];
 // segment, run_in: SgmConfig::segment (0: off) and segment_run_in; workgroup z is the segment of a row.
-layout(push_constant) uniform Params { int width, height, num_disparities, p1, p2, words, segment, run_in; } pc;
+layout(push_constant) uniform Params { int width, height, p1, p2, words, segment, run_in; } pc;
 
-const uint kBig = 0xFFFFu;  // beyond any L: the disparities outside the band
+const uint kBig = 0xFFFFu;  // beyond any L: past the ends of the band
 const int kRing = 8;
 const int kOwn = 4 * kWords;  // disparities per invocation
 const ivec2 kDirections[8] = ivec2[8](ivec2(1, 0), ivec2(-1, 0), ivec2(0, 1), ivec2(0, -1), ivec2(1, 1), ivec2(-1, 1),
@@ -39,8 +56,19 @@ const ivec2 kDirections[8] = ivec2[8](ivec2(1, 0), ivec2(-1, 0), ivec2(0, 1), iv
 // The shared-memory exchange, by step parity: each invocation's first and last L, each subgroup's minimum.
 shared uint edge_first[2][kThreads], edge_last[2][kThreads], subgroup_min[2][kThreads];
 
+#ifdef HALF
+// 1024 + each byte of a word as halves, bytes 0, 1 and bytes 2, 3.
+f16vec2 biased_low(uint w) { return unpackFloat2x16(0x64006400u | (w & 0xFFu) | ((w & 0xFF00u) << 8)); }
+f16vec2 biased_high(uint w) { return unpackFloat2x16(0x64006400u | ((w >> 16) & 0xFFu) | ((w >> 8) & 0xFF0000u)); }
+// The low bytes of two pairs of biased halves, as a word of four L.
+uint bytes_of(f16vec2 a, f16vec2 b) {
+  const uint u = packFloat2x16(a), v = packFloat2x16(b);
+  return (u & 0xFFu) | ((u >> 8) & 0xFF00u) | ((v & 0xFFu) << 16) | ((v << 8) & 0xFF000000u);
+}
+#endif
+
 void main() {
-  const int W = pc.width, H = pc.height, D = pc.num_disparities;
+  const int W = pc.width, H = pc.height;
   const uint dir = gl_WorkGroupID.y;
   const int dx = kDirections[dir].x, dy = kDirections[dir].y;
   const int line = int(gl_WorkGroupID.x);
@@ -73,71 +101,107 @@ void main() {
   const int t = int(gl_LocalInvocationID.x);
   const int first_word = kWords * t;
   const bool one_subgroup = gl_NumSubgroups == 1u;
+  // This invocation's words at the line's first pixel, and the step between pixels, in words.
+  const int stride = (dy * W + dx) * pc.words;
+  int at = (y0 * W + x0) * pc.words + first_word;
 
+  // Words past the volume's (whole blocks of 16 disparities) read as disparities past the band.
   uint ring[kRing][kWords], next[kRing][kWords];
   [[unroll]] for (int s = 0; s < kRing; ++s)
-    [[unroll]] for (int k = 0; k < kWords; ++k) {
-      const int word = first_word + k, x = x0 + s * dx, y = y0 + s * dy;
-      ring[s][k] = s < steps && word < pc.words ? cost[(y * W + x) * pc.words + word] : 0u;
-    }
+    [[unroll]] for (int k = 0; k < kWords; ++k)
+      ring[s][k] = s < steps && first_word + k < pc.words ? cost[at + s * stride + k] : 0xFFFFFFFFu;
 
   uint prev[kOwn];
   [[unroll]] for (int i = 0; i < kOwn; ++i) prev[i] = kBig;
+#ifdef HALF
+  f16vec2 prev_h[kOwn / 2];
+  const float16_t big_h = float16_t(2047.0);  // 1024 + 1023: beyond any biased L
+  [[unroll]] for (int i = 0; i < kOwn / 2; ++i) prev_h[i] = f16vec2(big_h);
+  const f16vec2 p1_h = f16vec2(float16_t(pc.p1)), p2_h = f16vec2(float16_t(pc.p2));
+#endif
   uint below = kBig, above = kBig;  // L(p-r) at this block's first d - 1 and last d + 1
-  uint prev_min = 0u;
+  uint prev_min = 0u;               // kHalf: biased
   for (int block = 0; block * kRing < steps; ++block) {
     [[unroll]] for (int s = 0; s < kRing; ++s)  // the next block's costs, in flight during this block
-      [[unroll]] for (int k = 0; k < kWords; ++k) {
-        const int step = (block + 1) * kRing + s, word = first_word + k, x = x0 + step * dx, y = y0 + step * dy;
-        next[s][k] = step < steps && word < pc.words ? cost[(y * W + x) * pc.words + word] : 0u;
-      }
+      [[unroll]] for (int k = 0; k < kWords; ++k)
+        next[s][k] = (block + 1) * kRing + s < steps && first_word + k < pc.words
+                         ? cost[at + ((block + 1) * kRing + s) * stride + k]
+                         : 0xFFFFFFFFu;
     [[unroll]] for (int s = 0; s < kRing; ++s) {
       const int step = block * kRing + s;
       if (step >= steps) break;  // uniform: the whole workgroup leaves together
-      const int x = x0 + step * dx, y = y0 + step * dy;
-      uint cur[kOwn];
-      uint local_min = kBig;
-      [[unroll]] for (int i = 0; i < kOwn; ++i) {
-        const int d = 4 * first_word + i;
-        uint l = kBig;
-        if (d < D) {
+      const int here = at + step * stride;
+      uint local_min, first, last;
+#ifdef HALF
+      {
+        f16vec2 cur[kOwn / 2];
+        f16vec2 m2 = f16vec2(big_h);
+        const f16vec2 floor_h = f16vec2(float16_t(prev_min)) + p2_h;  // min L + P2
+        const float16_t below_h = float16_t(below), above_h = float16_t(above);
+        [[unroll]] for (int j = 0; j < kOwn / 2; ++j) {
+          const uint word = ring[s][j / 2];
+          const f16vec2 c = (j & 1) == 0 ? biased_low(word) : biased_high(word);
+          f16vec2 l = c;
+          if (step > 0) {
+            const f16vec2 lo = f16vec2(j == 0 ? below_h : prev_h[j == 0 ? 0 : j - 1].y, prev_h[j].x);
+            const f16vec2 hi = f16vec2(prev_h[j].y, j == kOwn / 2 - 1 ? above_h : prev_h[j == kOwn / 2 - 1 ? j : j + 1].x);
+            l = c + (min(min(prev_h[j], min(lo, hi) + p1_h), floor_h) - f16vec2(float16_t(prev_min)));
+          }
+          cur[j] = l;
+          m2 = min(m2, l);
+        }
+        [[unroll]] for (int k = 0; k < kWords; ++k)
+          if (first_word + k < pc.words && step >= keep_from)
+            path_cost[dir].w[here + k] = bytes_of(cur[2 * k], cur[2 * k + 1]);
+        local_min = uint(min(m2.x, m2.y));
+        first = uint(cur[0].x);
+        last = uint(cur[kOwn / 2 - 1].y);
+        [[unroll]] for (int j = 0; j < kOwn / 2; ++j) prev_h[j] = cur[j];
+      }
+#else
+      {
+        uint cur[kOwn];
+        local_min = kBig;
+        [[unroll]] for (int i = 0; i < kOwn; ++i) {
           const uint c = (ring[s][i / 4] >> uint(8 * (i % 4))) & 0xFFu;
-          l = c;
+          uint l = c;
           if (step > 0) {
             const uint lo = i == 0 ? below : prev[i == 0 ? 0 : i - 1];
             const uint hi = i == kOwn - 1 ? above : prev[i == kOwn - 1 ? i : i + 1];
             l = c + min(min(prev[i], min(lo, hi) + uint(pc.p1)), prev_min + uint(pc.p2)) - prev_min;
           }
           local_min = min(local_min, l);
+          cur[i] = l;
         }
-        cur[i] = l;
+        [[unroll]] for (int k = 0; k < kWords; ++k)
+          if (first_word + k < pc.words && step >= keep_from)
+            path_cost[dir].w[here + k] = (cur[4 * k] & 0xFFu) | ((cur[4 * k + 1] & 0xFFu) << 8) |
+                                         ((cur[4 * k + 2] & 0xFFu) << 16) | ((cur[4 * k + 3] & 0xFFu) << 24);
+        first = cur[0];
+        last = cur[kOwn - 1];
+        [[unroll]] for (int i = 0; i < kOwn; ++i) prev[i] = cur[i];
       }
-      [[unroll]] for (int k = 0; k < kWords; ++k) {
-        const int word = first_word + k;
-        if (word < pc.words && step >= keep_from)
-          path_cost[dir].w[(y * W + x) * pc.words + word] =
-              (cur[4 * k] & 0xFFu) | ((cur[4 * k + 1] & 0xFFu) << 8) | ((cur[4 * k + 2] & 0xFFu) << 16) |
-              ((cur[4 * k + 3] & 0xFFu) << 24);
-      }
+#endif
+      // Past either end of the band: kBig (biased or not, beyond any L).
+      const uint big = kHalf ? 2047u : kBig;
       if (one_subgroup) {
-        below = subgroupShuffleUp(cur[kOwn - 1], 1u);
-        above = subgroupShuffleDown(cur[0], 1u);
-        if (t == 0) below = kBig;
-        if (t == kThreads - 1) above = kBig;
+        below = subgroupShuffleUp(last, 1u);
+        above = subgroupShuffleDown(first, 1u);
+        if (t == 0) below = big;
+        if (t == kThreads - 1) above = big;
         prev_min = subgroupMin(local_min);
       } else {
         const int par = step & 1;  // two copies: the next step's writes need no second barrier
-        edge_first[par][t] = cur[0];
-        edge_last[par][t] = cur[kOwn - 1];
+        edge_first[par][t] = first;
+        edge_last[par][t] = last;
         const uint m = subgroupMin(local_min);
         if (subgroupElect()) subgroup_min[par][gl_SubgroupID] = m;
         barrier();
-        below = t > 0 ? edge_last[par][t - 1] : kBig;
-        above = t < kThreads - 1 ? edge_first[par][t + 1] : kBig;
+        below = t > 0 ? edge_last[par][t - 1] : big;
+        above = t < kThreads - 1 ? edge_first[par][t + 1] : big;
         prev_min = kBig;
         for (uint g = 0u; g < gl_NumSubgroups; ++g) prev_min = min(prev_min, subgroup_min[par][g]);
       }
-      [[unroll]] for (int i = 0; i < kOwn; ++i) prev[i] = cur[i];
     }
     [[unroll]] for (int r = 0; r < kRing; ++r)
       [[unroll]] for (int k = 0; k < kWords; ++k) ring[r][k] = next[r][k];

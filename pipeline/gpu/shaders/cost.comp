@@ -1,7 +1,8 @@
 #version 450
 // Matching costs, four disparities to a word: invocation (x words + word, y) writes C(x, y, d) for d = 4 word + e,
 // e < 4, in byte e of cost[(y width + x) words + word]: the Hamming distance of the census words of left
-// x and right x - (min_disparity + d), 64 where that leaves the right image; bytes past num_disparities 0.
+// x and right x - (min_disparity + d), 64 where that leaves the right image; bytes past num_disparities
+// 255, which keeps their path costs out of aggregate.comp's minima.
 layout(local_size_x = 64) in;
 layout(std430, binding = 0) readonly buffer CensusL { uvec2 census_l[]; };
 layout(std430, binding = 1) readonly buffer CensusR { uvec2 census_r[]; };
@@ -17,10 +18,9 @@ void main() {
   uint packed = 0u;
   for (int e = 0; e < 4; ++e) {
     const int d = 4 * word + e;
-    if (d >= pc.num_disparities) break;
     const int xr = x - pc.min_disparity - d;
-    uint c = 64u;
-    if (xr >= 0) {
+    uint c = d < pc.num_disparities ? 64u : 255u;
+    if (xr >= 0 && d < pc.num_disparities) {
       const uvec2 cr = census_r[pixel - (x - xr)];
       c = uint(bitCount(cl.x ^ cr.x) + bitCount(cl.y ^ cr.y));
     }

@@ -6,32 +6,36 @@
 // neighbour (windows are independent here). One subgroup per window: its invocations take the window's
 // pixels in turn and every sum is a subgroup sum, so all invocations hold the same totals and take the
 // same branches; the sums' order differs from the reference's, which agrees to float rounding. Works for
-// any subgroup size: each subgroup walks the columns with the stride of the whole dispatch. The host
-// fills `refined` with NaN first, so pixels not refined stay NaN.
+// any subgroup size: each subgroup walks the columns with the stride of the whole dispatch. The output is
+// the 16-bit fixed-point disparity the host downloads (common.glsl), every pixel written once: refined, or
+// invalid where no window refined it (no fill before).
 // Two modes (specialization constant 0):
 // - per pixel: one window around each pixel of the grid (x % step == 0, y % row_step == 0, rows
-//   [row_begin, row_end)) with a valid disparity d0; workgroup (x, grid row).
+//   [row_begin, row_end)) with a valid disparity d0; workgroup (x, row), every row of the image.
 // - column windows (dic.hpp DicKernelConfig::column_windows, the geometry of pipeline/dic_refine.cpp): one
 //   window per column and row block, as tall as the block and centred on its middle row yc, started
 //   from the median of the column's valid disparities in the block; every row y of the block gets
-//   -(c + b (y - yc)); workgroup (x, block).
+//   -(c + b (y - yc)); workgroup (x, block); the first and last blocks' workgroups also write the rows
+//   above and below the blocks (with no block, workgroup row 0 writes every row).
 #extension GL_KHR_shader_subgroup_basic : require
 #extension GL_KHR_shader_subgroup_arithmetic : require
 #extension GL_EXT_control_flow_attributes : require
+#extension GL_EXT_shader_16bit_storage : require
 layout(local_size_x = 64) in;
 layout(constant_id = 0) const bool kColumnWindows = false;
 layout(std430, binding = 0) readonly buffer Left { uint left_px[]; };
 layout(std430, binding = 1) readonly buffer CoefL { float coef_l[]; };
 layout(std430, binding = 2) readonly buffer CoefR { float coef_r[]; };
 layout(std430, binding = 3) readonly buffer Initial { float initial[]; };
-layout(std430, binding = 4) writeonly buffer Refined { float refined[]; };
+layout(std430, binding = 4) writeonly buffer Refined { uint16_t refined[]; };
 layout(push_constant) uniform Params {
   // hh: the window's half height (per pixel), or the half height the convergence test weighs the row
   // slope with (column windows: ColumnBlocks::half_height). first_row: the first grid row (per pixel),
-  // or row_begin (column windows). rows, blocks: column windows' rows from row_begin and row blocks.
-  int width, height, words_per_row, h, hh, max_iterations, step, row_step, first_row, columns, first_order;
+  // or row_begin (column windows); last_row: the grid's rows end before it (per pixel). rows, blocks:
+  // column windows' rows from row_begin and row blocks. base, scale: the output's fixed point.
+  int width, height, words_per_row, h, hh, max_iterations, step, row_step, first_row, last_row, first_order;
   float tolerance, max_shift, max_gradient, min_gradient, min_zncc, max_sigma;
-  int rows, blocks;
+  int rows, blocks, base, scale;
 } pc;
 #include "common.glsl"
 
@@ -193,13 +197,26 @@ bool solve(int x, int y, int x0, int x1, int y0, int y1, float d0, out float b_o
   return false;
 }
 
+void store(int x, int y, uint value) { refined[y * pc.width + x] = uint16_t(value); }
+
+// The window around (x, y) of the grid; its refined disparity or invalid.
 void refine_pixel(int x, int y) {
   const float d0 = initial[y * pc.width + x];
-  if (isnan(d0)) return;
-  const int x0 = max(0, x - pc.h), x1 = min(pc.width - 1, x + pc.h);
-  const int y0 = max(0, y - pc.hh), y1 = min(pc.height - 1, y + pc.hh);
-  float b, c;
-  if (solve(x, y, x0, x1, y0, y1, d0, b, c) && subgroupElect()) refined[y * pc.width + x] = -c;
+  uint out_value = kInvalidDisparity;
+  if (!isnan(d0)) {
+    const int x0 = max(0, x - pc.h), x1 = min(pc.width - 1, x + pc.h);
+    const int y0 = max(0, y - pc.hh), y1 = min(pc.height - 1, y + pc.hh);
+    float b, c;
+    if (solve(x, y, x0, x1, y0, y1, d0, b, c)) out_value = encode_disparity(-c, pc.base, pc.scale);
+  }
+  if (subgroupElect()) store(x, y, out_value);
+}
+
+// Rows [y0, y1) invalid, by every invocation of the workgroups of one workgroup row, coalesced.
+void invalidate_rows(int y0, int y1) {
+  const int stride = int(gl_NumWorkGroups.x * gl_WorkGroupSize.x);
+  for (int y = y0; y < y1; ++y)
+    for (int x = int(gl_GlobalInvocationID.x); x < pc.width; x += stride) store(x, y, kInvalidDisparity);
 }
 
 bool valid_disparity(float d) { return !isnan(d) && !isinf(d); }
@@ -234,27 +251,45 @@ bool column_start(int x, int y0, int y1, out float start) {
 
 int block_begin(int b) { return pc.first_row + pc.rows * b / pc.blocks; }
 
+// The column window at x in `block`: every row of the block refined, or all invalid.
 void refine_column(int x, int block) {
   const int y0 = block_begin(block), y1 = block_begin(block + 1) - 1, yc = (y0 + y1) / 2;
-  float d0;
-  if (!column_start(x, y0, y1, d0)) return;
-  const int x0 = max(0, x - pc.h), x1 = min(pc.width - 1, x + pc.h);
-  float b, c;
-  if (!solve(x, yc, x0, x1, y0, y1, d0, b, c)) return;
+  float d0, b = 0.0, c = 0.0;
+  bool ok = column_start(x, y0, y1, d0);
+  if (ok) {
+    const int x0 = max(0, x - pc.h), x1 = min(pc.width - 1, x + pc.h);
+    ok = solve(x, yc, x0, x1, y0, y1, d0, b, c);
+  }
   for (int r = y0 + int(gl_SubgroupInvocationID); r <= y1; r += int(gl_SubgroupSize)) {
     precise const float d = -(c + b * float(r - yc));
-    refined[r * pc.width + x] = d;
+    store(x, r, ok ? encode_disparity(d, pc.base, pc.scale) : kInvalidDisparity);
   }
 }
 
 void main() {
-  if (pc.width < 4) return;
   const int stride = int(gl_NumWorkGroups.x * gl_NumSubgroups);
   const int first = int(gl_WorkGroupID.x * gl_NumSubgroups + gl_SubgroupID);
+  const int lane = int(gl_SubgroupInvocationID);
   if (kColumnWindows) {
-    for (int x = first; x < pc.width; x += stride) refine_column(x, int(gl_WorkGroupID.y));
+    const int block = int(gl_WorkGroupID.y), last = pc.first_row + pc.rows;
+    if (pc.blocks == 0 || pc.width < 4) {  // nothing refined: workgroup row 0 writes every row
+      if (block == 0) invalidate_rows(0, pc.height);
+      return;
+    }
+    if (block == 0) invalidate_rows(0, pc.first_row);
+    if (block == pc.blocks - 1) invalidate_rows(last, pc.height);
+    for (int x = first; x < pc.width; x += stride) refine_column(x, block);
   } else {
-    const int y = pc.first_row + int(gl_WorkGroupID.y) * pc.row_step;
-    for (int col = first; col < pc.columns; col += stride) refine_pixel(col * pc.step, y);
+    const int y = int(gl_WorkGroupID.y);
+    const bool grid_row = pc.width >= 4 && y >= pc.first_row && y < pc.last_row && (y - pc.first_row) % pc.row_step == 0;
+    if (!grid_row) {
+      invalidate_rows(y, y + 1);
+      return;
+    }
+    // Each subgroup a run of columns: windows where x % step == 0, invalid between them.
+    for (int x = first; x < pc.width; x += stride) {
+      if (x % pc.step == 0) refine_pixel(x, y);
+      else if (lane == 0) store(x, y, kInvalidDisparity);
+    }
   }
 }

@@ -4,12 +4,16 @@
 // (v + 32) >> 6 (max_diff < 0: no check). The right view comes as wta.comp's keys: min_disparity +
 // (key & 511), 0xFFFFFFFF none. The median is taken over the nine checked values with
 // invalid = -1 (so invalid neighbours pull toward invalid); pixels on the image border keep their own.
-// Output: px as float, NaN invalid.
+// Output (push constant outputs): bit 0, px as float, NaN invalid (the DIC's start, and tests); bit 1, the
+// 16-bit fixed-point disparity the host downloads (common.glsl), exact: scale is a multiple of 64.
+#extension GL_EXT_shader_16bit_storage : require
 layout(local_size_x = 64) in;
 layout(std430, binding = 0) readonly buffer DispL { int disp_l[]; };
 layout(std430, binding = 1) readonly buffer RightKey { uint right_key[]; };
 layout(std430, binding = 2) writeonly buffer Out { float disparity[]; };
-layout(push_constant) uniform Params { int width, height, max_diff, median, min_disparity; } pc;
+layout(std430, binding = 3) writeonly buffer Fixed { uint16_t fixed_disparity[]; };
+layout(push_constant) uniform Params { int width, height, max_diff, median, min_disparity, outputs, base, scale; } pc;
+#include "common.glsl"
 
 int checked(int x, int y) {
   const int v = disp_l[y * pc.width + x];
@@ -40,5 +44,7 @@ void main() {
     }
     m = v[4];
   }
-  disparity[y * pc.width + x] = m < 0 ? uintBitsToFloat(0x7FC00000u) : float(m) / 64.0;
+  if ((pc.outputs & 1) != 0) disparity[y * pc.width + x] = m < 0 ? uintBitsToFloat(0x7FC00000u) : float(m) / 64.0;
+  if ((pc.outputs & 2) != 0)
+    fixed_disparity[y * pc.width + x] = uint16_t(m < 0 ? kInvalidDisparity : uint((m - 64 * pc.base) * (pc.scale / 64)));
 }

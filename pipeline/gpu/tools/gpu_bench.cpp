@@ -1,14 +1,19 @@
-// rutd-gpu-bench: speed of the Vulkan matcher. Per image size (640x480, 1280x1024, a 640x48 strip),
-// paths (2/4/8) and disparities (64/128): the median over --runs frames after --warmup frames of the
-// device time of each stage (GPU timestamps) and of one synchronous frame end to end on the host clock
-// (pack and upload both images, all stages, download the float disparity), and the throughput with two
-// frames in flight (the next pair's upload overlapping the current pair's work). Images are generated
+// rutd-gpu-bench: speed of the Vulkan matcher. Per configuration (image size x disparities x paths x row
+// segment x winner-takes-all segment): the median and 99th percentile over --runs frames after --warmup
+// frames of the device time of each stage (GPU timestamps) and of one synchronous frame end to end on the
+// host clock (pack and upload both images, all stages, download and decode the disparity and, with raw
+// input, copy the strips out, as the daemon's engine does), and the throughput with two frames in flight
+// (the next pair's upload overlapping the current pair's work). Images are generated
 // (tools/synthetic_pair.hpp) or read from 8-bit binary PGM files (--left/--right, one size then).
 // Needs only the Vulkan loader at run time.
 //   rutd-gpu-bench [--device NAME|INDEX] [--runs N] [--warmup N] [--sizes 640x480,1280x1024,640x48]
 //                  [--paths 2,4,8] [--disparities 64,128] [--left L.pgm --right R.pgm]
-//                  [--dic columns|pixels|none] [--input raw|rectified] [--segment N [--run-in N]]
-// --segment: rows aggregated in segments of N px with an N px run-in (SgmConfig::segment; default 64).
+//                  [--dic columns|pixels|none] [--input raw|rectified] [--segment 0,64,...] [--run-in N]
+//                  [--wta-segment 0,128,...] [--aggregate int|half] [--json]
+// --segment: rows aggregated in segments of N px with a --run-in px run-in (SgmConfig::segment; 0, the
+// default, whole rows); a list times each. --wta-segment: the winner-takes-all's rows walked in segments
+// (VulkanSgmOptions::wta_segment; 0 whole rows). --aggregate half: the aggregation's step in packed half
+// floats (VulkanSgmOptions::aggregate_half).
 // --input raw (the default, what the daemon runs): each frame uploads raw images and rectifies them on the
 // device through maps of a slightly rotated and scaled rig (a strip of under 480 rows is the centre of a
 // 480-row raw image, and only the raw rows its maps reach are uploaded), and downloads the rectified strips
@@ -20,6 +25,12 @@
 // daemon runs) one window per column and block of 16 rows, or per column of the whole image when it has
 // at most 64 rows (a strip), as the measurer configures it; `pixels` an 11x11 window around every pixel
 // of every second row. The B-spline prefilter runs with the census and counts there.
+// --json: one JSON object per configuration on stdout instead of the table: device, type, driver,
+// subgroup, width, height, disparities, paths, segment, run_in, wta_segment, aggregate ("int"/"half"), dic
+// ("columns"/"pixels"/"none"), input, runs, warmup, then {"median": ms, "p99": ms} for upload_ms,
+// rectify_ms, census_ms, aggregate_ms, wta_ms, lr_median_ms, dic_ms, download_ms (device times; 0 without
+// timestamps) and end_to_end_ms (host), hz (1000 / median end to end), two_in_flight_hz, and band_ms (raw
+// input; else null).
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
@@ -45,6 +56,12 @@ std::vector<std::string> split(const std::string& s) {
   return out;
 }
 
+std::vector<int> split_ints(const std::string& s) {
+  std::vector<int> out;
+  for (const std::string& item : split(s)) out.push_back(std::atoi(item.c_str()));
+  return out;
+}
+
 // Binary 8-bit PGM (P5, maxval <= 255); empty on anything else.
 bool read_pgm(const std::string& path, int& w, int& h, std::vector<std::uint8_t>& px) {
   std::ifstream f(path, std::ios::binary);
@@ -67,13 +84,32 @@ bool read_pgm(const std::string& path, int& w, int& h, std::vector<std::uint8_t>
   return static_cast<bool>(f);
 }
 
-double median(std::vector<double> v) {
+// The q-quantile (0.5 median, 0.99 p99) of v: the element at q (n - 1) rounded up.
+double quantile(std::vector<double> v, double q) {
   if (v.empty()) return 0;
-  std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
-  return v[v.size() / 2];
+  const auto k = static_cast<std::ptrdiff_t>(q * static_cast<double>(v.size() - 1) + 0.999999);
+  std::nth_element(v.begin(), v.begin() + k, v.end());
+  return v[static_cast<std::size_t>(k)];
 }
 
 double ms_since(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
+
+// `text` as the inside of a JSON string.
+std::string json_escaped(const std::string& text) {
+  std::string out;
+  for (const char c : text) {
+    if (c == '"' || c == '\\') out += '\\';
+    if (static_cast<unsigned char>(c) >= 0x20) out += c;
+  }
+  return out;
+}
+
+std::string json_stat(const std::vector<double>& v) {
+  if (v.empty()) return "null";
+  char buf[96];
+  std::snprintf(buf, sizeof buf, "{\"median\":%.4f,\"p99\":%.4f}", quantile(v, 0.5), quantile(v, 0.99));
+  return buf;
+}
 
 // Maps of a rectified rig: the strip (w x h) centred in the raw image, each camera rotated by a few tenths
 // of a degree and scaled by a few parts per thousand, as stereoRectify's rotations of a real rig do.
@@ -98,190 +134,241 @@ RectifyMaps rig_maps(int w, int h, int raw_w, int raw_h) {
   return m;
 }
 
+struct Options {
+  std::string device, sizes = "640x480,1280x1024,640x48", paths = "2,4,8", disparities = "64,128", left_pgm, right_pgm;
+  int runs = 200, warmup = 20;
+  std::string dic = "columns", input = "raw", aggregate = "int";
+  std::vector<int> segments{0}, wta_segments{0};
+  int run_in = 64;
+  bool json = false;
+};
+
+// Every stage's times of the measured frames.
+struct Times {
+  std::vector<double> upload, rectify, census, aggregate, wta, lr_median, dic, download, total, band;
+  double flight_hz = 0;
+};
+
 }  // namespace
 
 int main(int argc, char** argv) {
-  std::string device, sizes = "640x480,1280x1024,640x48", paths = "2,4,8", disparities = "64,128", left_pgm, right_pgm;
-  int runs = 200, warmup = 20;
-  std::string dic_mode = "columns", input = "raw";
-  int segment = 0, run_in = 64;
+  Options o;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     const bool more = i + 1 < argc;
-    if (a == "--device" && more) device = argv[++i];
-    else if (a == "--runs" && more) runs = std::max(1, std::atoi(argv[++i]));
-    else if (a == "--warmup" && more) warmup = std::max(0, std::atoi(argv[++i]));
-    else if (a == "--sizes" && more) sizes = argv[++i];
-    else if (a == "--paths" && more) paths = argv[++i];
-    else if (a == "--disparities" && more) disparities = argv[++i];
-    else if (a == "--left" && more) left_pgm = argv[++i];
-    else if (a == "--right" && more) right_pgm = argv[++i];
-    else if (a == "--dic" && more) dic_mode = argv[++i];
-    else if (a == "--no-dic") dic_mode = "none";
-    else if (a == "--input" && more) input = argv[++i];
-    else if (a == "--segment" && more) segment = std::atoi(argv[++i]);
-    else if (a == "--run-in" && more) run_in = std::atoi(argv[++i]);
+    if (a == "--device" && more) o.device = argv[++i];
+    else if (a == "--runs" && more) o.runs = std::max(1, std::atoi(argv[++i]));
+    else if (a == "--warmup" && more) o.warmup = std::max(0, std::atoi(argv[++i]));
+    else if (a == "--sizes" && more) o.sizes = argv[++i];
+    else if (a == "--paths" && more) o.paths = argv[++i];
+    else if (a == "--disparities" && more) o.disparities = argv[++i];
+    else if (a == "--left" && more) o.left_pgm = argv[++i];
+    else if (a == "--right" && more) o.right_pgm = argv[++i];
+    else if (a == "--dic" && more) o.dic = argv[++i];
+    else if (a == "--no-dic") o.dic = "none";
+    else if (a == "--input" && more) o.input = argv[++i];
+    else if (a == "--segment" && more) o.segments = split_ints(argv[++i]);
+    else if (a == "--run-in" && more) o.run_in = std::atoi(argv[++i]);
+    else if (a == "--wta-segment" && more) o.wta_segments = split_ints(argv[++i]);
+    else if (a == "--aggregate" && more) o.aggregate = argv[++i];
+    else if (a == "--json") o.json = true;
     else {
       std::fprintf(stderr, "usage: see the comment at the top of gpu_bench.cpp\n");
       return 2;
     }
   }
-  if (dic_mode != "columns" && dic_mode != "pixels" && dic_mode != "none") {
+  if (o.dic != "columns" && o.dic != "pixels" && o.dic != "none") {
     std::fprintf(stderr, "--dic: columns, pixels or none\n");
     return 2;
   }
-  if (input != "raw" && input != "rectified") {
+  if (o.input != "raw" && o.input != "rectified") {
     std::fprintf(stderr, "--input: raw or rectified\n");
     return 2;
   }
-  const bool raw = input == "raw";
-  {
+  if (o.aggregate != "int" && o.aggregate != "half") {
+    std::fprintf(stderr, "--aggregate: int or half\n");
+    return 2;
+  }
+  for (const int segment : o.segments) {
     SgmConfig segmented;
     segmented.segment = segment;
-    segmented.segment_run_in = run_in;
+    segmented.segment_run_in = o.run_in;
     const std::string error = check_sgm_input(1, 1, SgmBand{0, 2}, segmented);
     if (!error.empty()) {
       std::fprintf(stderr, "--segment/--run-in: %s\n", error.c_str());
       return 2;
     }
   }
+  for (const int segment : o.wta_segments) {
+    if (segment != 0 && segment < 16) {
+      std::fprintf(stderr, "--wta-segment: 0 or >= 16 px\n");
+      return 2;
+    }
+  }
+  const bool raw = o.input == "raw";
   tools::Pair file_pair;
-  if (!left_pgm.empty() || !right_pgm.empty()) {
+  if (!o.left_pgm.empty() || !o.right_pgm.empty()) {
     int rw = 0, rh = 0;
-    if (!read_pgm(left_pgm, file_pair.width, file_pair.height, file_pair.left) ||
-        !read_pgm(right_pgm, rw, rh, file_pair.right) || rw != file_pair.width || rh != file_pair.height) {
+    if (!read_pgm(o.left_pgm, file_pair.width, file_pair.height, file_pair.left) ||
+        !read_pgm(o.right_pgm, rw, rh, file_pair.right) || rw != file_pair.width || rh != file_pair.height) {
       std::fprintf(stderr, "cannot read two 8-bit binary PGM images of one size from --left/--right\n");
       return 2;
     }
-    sizes = std::to_string(file_pair.width) + "x" + std::to_string(file_pair.height);
+    o.sizes = std::to_string(file_pair.width) + "x" + std::to_string(file_pair.height);
   }
 
   bool header = false;
-  for (const std::string& size : split(sizes)) {
+  for (const std::string& size : split(o.sizes)) {
     const int w = std::atoi(size.c_str()), h = std::atoi(size.substr(size.find('x') + 1).c_str());
-    for (const std::string& ds : split(disparities)) {
-      const int nd = std::atoi(ds.c_str());
-      std::unique_ptr<VulkanSgm> sgm;
-      try {
-        sgm = std::make_unique<VulkanSgm>(device, w, h, nd);
-      } catch (const GpuError& e) {
-        std::fprintf(stderr, "%s\n", e.what());
-        return 1;
-      }
-      if (!header) {
-        std::printf("device %d: %s (%s, subgroup %u); DIC %s; %s input; median of %d runs after %d warm-up, ms\n",
-                    sgm->device().index, sgm->device().name.c_str(), sgm->device().type.c_str(),
-                    sgm->device().subgroup_size,
-                    dic_mode == "columns"  ? "column windows"
-                    : dic_mode == "pixels" ? "per pixel, every second row"
-                                           : "off",
-                    input.c_str(), runs, warmup);
-        std::printf("%-10s %5s %5s | %7s %7s %7s %9s %7s %7s %7s %8s | %9s %8s | %9s | %7s\n", "size", "disp", "paths",
-                    "upload", "rectify", "census", "aggregate", "wta", "lr+med", "dic", "download", "end2end", "Hz",
-                    "2-flight", "band");
-        header = true;
-      }
-      const SgmBand band{0, nd};
-      // Raw input: a strip is the middle of a 480-row image (the daemon's 640x48 of a 640x480 camera).
-      const int raw_w = file_pair.width ? file_pair.width : w;
-      const int raw_h = file_pair.width ? file_pair.height : raw ? std::max(h, 480) : h;
-      const tools::Pair pair =
-          file_pair.width ? file_pair : tools::synthetic_pair(raw_w, raw_h, band.min_disparity, nd, 7);
-      const ImageView l{pair.left.data(), raw_w, raw_h, static_cast<std::size_t>(raw_w)};
-      const ImageView r{pair.right.data(), raw_w, raw_h, static_cast<std::size_t>(raw_w)};
-      std::vector<float> out(static_cast<std::size_t>(w) * static_cast<std::size_t>(h));
-      std::vector<std::uint8_t> strip_l(out.size()), strip_r(out.size());
-      const StripsOut strips{strip_l.data(), strip_r.data(), static_cast<std::size_t>(w)};
-      if (raw) {
+    for (const int nd : split_ints(o.disparities)) {
+      for (const int wta_segment : o.wta_segments) {
+        VulkanSgmOptions options;
+        options.wta_segment = wta_segment;
+        options.aggregate_half = o.aggregate == "half";
+        std::unique_ptr<VulkanSgm> sgm;
         try {
-          sgm->set_rectification(rig_maps(w, h, raw_w, raw_h));
+          sgm = std::make_unique<VulkanSgm>(o.device, w, h, nd, options);
         } catch (const GpuError& e) {
           std::fprintf(stderr, "%s\n", e.what());
           return 1;
         }
-      }
-      const auto submit = [&](const SgmConfig& params, const DicKernelConfig* dic, int& ticket) {
-        return raw ? sgm->submit_raw(l, r, &band, params, dic, ticket) : sgm->submit(l, r, band, params, dic, ticket);
-      };
-      const auto collect = [&](int ticket, GpuStageTimes* t) {
-        return sgm->collect(ticket, out.data(), static_cast<std::size_t>(w), t, raw ? &strips : nullptr);
-      };
-      for (const std::string& ps : split(paths)) {
-        SgmConfig params;
-        params.paths = std::atoi(ps.c_str());
-        params.segment = segment;
-        params.segment_run_in = run_in;
-        const std::string error = check_sgm_input(w, h, band, params);
-        if (!error.empty()) {
-          std::fprintf(stderr, "%s\n", error.c_str());
-          return 2;
+        const GpuDeviceInfo& info = sgm->device();
+        if (!header && !o.json) {
+          std::printf("device %d: %s; DIC %s; %s input; aggregation in %s; median of %d runs after %d warm-up, ms\n",
+                      info.index, describe(info).c_str(),
+                      o.dic == "columns"  ? "column windows"
+                      : o.dic == "pixels" ? "per pixel, every second row"
+                                          : "off",
+                      o.input.c_str(), o.aggregate == "half" ? "half floats" : "integers", o.runs, o.warmup);
+          std::printf("%-10s %5s %5s %4s %4s | %7s %7s %7s %9s %7s %7s %7s %8s | %9s %8s %8s | %9s | %7s\n", "size",
+                      "disp", "paths", "seg", "wseg", "upload", "rectify", "census", "aggregate", "wta", "lr+med",
+                      "dic", "download", "end2end", "p99", "Hz", "2-flight", "band");
+          header = true;
         }
-        std::vector<double> up, rect, census, agg, wta, lrm, dict, down, total;
-        DicKernelConfig dic;
-        dic.row_step = 2;
-        if (dic_mode == "columns") {
-          dic.column_windows = true;
-          dic.column_block_rows = h <= 64 ? 0 : 16;  // MeasurerConfig::kMaxColumnWindowRows, kColumnBlockRows
-        }
-        const DicKernelConfig* dic_ptr = dic_mode != "none" ? &dic : nullptr;
-        for (int i = 0; i < warmup + runs; ++i) {
-          GpuStageTimes t;
-          const auto t0 = Clock::now();
-          int ticket = 0;
-          GpuStatus s = submit(params, dic_ptr, ticket);
-          if (s == GpuStatus::Ok) s = collect(ticket, &t);
-          const double ms = ms_since(t0);
-          if (s != GpuStatus::Ok) {
-            std::fprintf(stderr, "frame failed: %s\n", std::string(to_string(s)).c_str());
-            return 1;
-          }
-          if (i < warmup) continue;
-          up.push_back(t.upload_ms);
-          rect.push_back(t.rectify_ms);
-          census.push_back(t.census_ms);
-          agg.push_back(t.aggregate_ms);
-          wta.push_back(t.wta_ms);
-          lrm.push_back(t.lr_median_ms);
-          dict.push_back(t.dic_ms);
-          down.push_back(t.download_ms);
-          total.push_back(ms);
-        }
-        // Two in flight: submit frame i+1, then collect frame i.
-        int tickets[2] = {0, 0};
-        const auto t0 = Clock::now();
-        bool ok = submit(params, dic_ptr, tickets[0]) == GpuStatus::Ok;
-        for (int i = 1; ok && i <= runs; ++i) {
-          if (i < runs) ok = submit(params, dic_ptr, tickets[i % 2]) == GpuStatus::Ok;
-          ok = ok && collect(tickets[(i - 1) % 2], nullptr) == GpuStatus::Ok;
-        }
-        const double flight_hz = ok ? 1000.0 * runs / ms_since(t0) : 0.0;
-        std::vector<double> band_ms;
+        const SgmBand band{0, nd};
+        // Raw input: a strip is the middle of a 480-row image (the daemon's 640x48 of a 640x480 camera).
+        const int raw_w = file_pair.width ? file_pair.width : w;
+        const int raw_h = file_pair.width ? file_pair.height : raw ? std::max(h, 480) : h;
+        const tools::Pair pair =
+            file_pair.width ? file_pair : tools::synthetic_pair(raw_w, raw_h, band.min_disparity, nd, 7);
+        const ImageView l{pair.left.data(), raw_w, raw_h, static_cast<std::size_t>(raw_w)};
+        const ImageView r{pair.right.data(), raw_w, raw_h, static_cast<std::size_t>(raw_w)};
+        std::vector<float> out(static_cast<std::size_t>(w) * static_cast<std::size_t>(h));
+        std::vector<std::uint8_t> strip_l(out.size()), strip_r(out.size());
+        const StripsOut strips{strip_l.data(), strip_r.data(), static_cast<std::size_t>(w)};
         if (raw) {
-          const CoarseGrid grid = coarse_grid(w, h, 2);
-          std::vector<float> coarse(static_cast<std::size_t>(grid.width) * static_cast<std::size_t>(grid.height));
-          std::vector<std::uint8_t> coarse_left(coarse.size());
-          StripsOut with_coarse = strips;
-          with_coarse.coarse_left = coarse_left.data();
-          with_coarse.coarse_stride = static_cast<std::size_t>(grid.width);
-          const SgmBand coarse_band{0, std::min(64, nd)};
-          for (int i = 0; ok && i < warmup + std::max(1, runs / 10); ++i) {
-            const auto t1 = Clock::now();
-            int ticket = 0;
-            ok = sgm->submit_coarse(l, r, 2, coarse_band, params, ticket) == GpuStatus::Ok &&
-                 sgm->collect(ticket, coarse.data(), static_cast<std::size_t>(grid.width), nullptr, &with_coarse) ==
-                     GpuStatus::Ok;
-            if (i >= warmup) band_ms.push_back(ms_since(t1));
-          }
-          if (!ok) {
-            std::fprintf(stderr, "band-estimate frame failed\n");
+          try {
+            sgm->set_rectification(rig_maps(w, h, raw_w, raw_h));
+          } catch (const GpuError& e) {
+            std::fprintf(stderr, "%s\n", e.what());
             return 1;
           }
         }
-        const double e2e = median(total);
-        std::printf("%-10s %5d %5d | %7.3f %7.3f %7.3f %9.3f %7.3f %7.3f %7.3f %8.3f | %9.3f %8.0f | %9.0f | %7.3f\n",
-                    size.c_str(), nd, params.paths, median(up), median(rect), median(census), median(agg), median(wta),
-                    median(lrm), median(dict), median(down), e2e, 1000.0 / e2e, flight_hz, median(band_ms));
-        std::fflush(stdout);
+        const auto submit = [&](const SgmConfig& params, const DicKernelConfig* dic, int& ticket) {
+          return raw ? sgm->submit_raw(l, r, &band, params, dic, ticket) : sgm->submit(l, r, band, params, dic, ticket);
+        };
+        const auto collect = [&](int ticket, GpuStageTimes* t) {
+          return sgm->collect(ticket, out.data(), static_cast<std::size_t>(w), t, raw ? &strips : nullptr);
+        };
+        for (const int paths : split_ints(o.paths)) {
+          for (const int segment : o.segments) {
+            SgmConfig params;
+            params.paths = paths;
+            params.segment = segment;
+            params.segment_run_in = o.run_in;
+            const std::string error = check_sgm_input(w, h, band, params);
+            if (!error.empty()) {
+              std::fprintf(stderr, "%s\n", error.c_str());
+              return 2;
+            }
+            Times t;
+            DicKernelConfig dic;
+            dic.row_step = 2;
+            if (o.dic == "columns") {
+              dic.column_windows = true;
+              dic.column_block_rows = h <= 64 ? 0 : 16;  // MeasurerConfig::kMaxColumnWindowRows, kColumnBlockRows
+            }
+            const DicKernelConfig* dic_ptr = o.dic != "none" ? &dic : nullptr;
+            for (int i = 0; i < o.warmup + o.runs; ++i) {
+              GpuStageTimes st;
+              const auto t0 = Clock::now();
+              int ticket = 0;
+              GpuStatus s = submit(params, dic_ptr, ticket);
+              if (s == GpuStatus::Ok) s = collect(ticket, &st);
+              const double ms = ms_since(t0);
+              if (s != GpuStatus::Ok) {
+                std::fprintf(stderr, "frame failed: %s\n", std::string(to_string(s)).c_str());
+                return 1;
+              }
+              if (i < o.warmup) continue;
+              t.upload.push_back(st.upload_ms);
+              t.rectify.push_back(st.rectify_ms);
+              t.census.push_back(st.census_ms);
+              t.aggregate.push_back(st.aggregate_ms);
+              t.wta.push_back(st.wta_ms);
+              t.lr_median.push_back(st.lr_median_ms);
+              t.dic.push_back(st.dic_ms);
+              t.download.push_back(st.download_ms);
+              t.total.push_back(ms);
+            }
+            // Two in flight: submit frame i+1, then collect frame i.
+            int tickets[2] = {0, 0};
+            const auto t0 = Clock::now();
+            bool ok = submit(params, dic_ptr, tickets[0]) == GpuStatus::Ok;
+            for (int i = 1; ok && i <= o.runs; ++i) {
+              if (i < o.runs) ok = submit(params, dic_ptr, tickets[i % 2]) == GpuStatus::Ok;
+              ok = ok && collect(tickets[(i - 1) % 2], nullptr) == GpuStatus::Ok;
+            }
+            t.flight_hz = ok ? 1000.0 * o.runs / ms_since(t0) : 0.0;
+            if (raw) {
+              const CoarseGrid grid = coarse_grid(w, h, 2);
+              std::vector<float> coarse(static_cast<std::size_t>(grid.width) * static_cast<std::size_t>(grid.height));
+              std::vector<std::uint8_t> coarse_left(coarse.size());
+              StripsOut with_coarse = strips;
+              with_coarse.coarse_left = coarse_left.data();
+              with_coarse.coarse_stride = static_cast<std::size_t>(grid.width);
+              const SgmBand coarse_band{0, std::min(64, nd)};
+              for (int i = 0; ok && i < o.warmup + std::max(1, o.runs / 10); ++i) {
+                const auto t1 = Clock::now();
+                int ticket = 0;
+                ok = sgm->submit_coarse(l, r, 2, coarse_band, params, ticket) == GpuStatus::Ok &&
+                     sgm->collect(ticket, coarse.data(), static_cast<std::size_t>(grid.width), nullptr, &with_coarse) ==
+                         GpuStatus::Ok;
+                if (i >= o.warmup) t.band.push_back(ms_since(t1));
+              }
+            }
+            if (!ok) {
+              std::fprintf(stderr, "frame failed with two in flight or in the band estimate\n");
+              return 1;
+            }
+            const double e2e = quantile(t.total, 0.5);
+            if (o.json) {
+              std::printf(
+                  "{\"device\":\"%s\",\"type\":\"%s\",\"driver\":\"%s\",\"subgroup\":%u,\"width\":%d,\"height\":%d,"
+                  "\"disparities\":%d,\"paths\":%d,\"segment\":%d,\"run_in\":%d,\"wta_segment\":%d,"
+                  "\"aggregate\":\"%s\",\"dic\":\"%s\",\"input\":\"%s\",\"runs\":%d,\"warmup\":%d,\"upload_ms\":%s,"
+                  "\"rectify_ms\":%s,\"census_ms\":%s,\"aggregate_ms\":%s,\"wta_ms\":%s,\"lr_median_ms\":%s,"
+                  "\"dic_ms\":%s,\"download_ms\":%s,\"end_to_end_ms\":%s,\"hz\":%.1f,\"two_in_flight_hz\":%.1f,"
+                  "\"band_ms\":%s}\n",
+                  json_escaped(info.name).c_str(), info.type.c_str(), json_escaped(info.driver).c_str(),
+                  info.subgroup_size, w, h, nd, paths, segment, o.run_in, wta_segment, o.aggregate.c_str(),
+                  o.dic.c_str(), o.input.c_str(), o.runs, o.warmup, json_stat(t.upload).c_str(),
+                  json_stat(t.rectify).c_str(), json_stat(t.census).c_str(), json_stat(t.aggregate).c_str(),
+                  json_stat(t.wta).c_str(), json_stat(t.lr_median).c_str(), json_stat(t.dic).c_str(),
+                  json_stat(t.download).c_str(), json_stat(t.total).c_str(), 1000.0 / e2e, t.flight_hz,
+                  json_stat(t.band).c_str());
+            } else {
+              std::printf(
+                  "%-10s %5d %5d %4d %4d | %7.3f %7.3f %7.3f %9.3f %7.3f %7.3f %7.3f %8.3f | %9.3f %8.3f %8.0f | %9.0f "
+                  "| %7.3f\n",
+                  size.c_str(), nd, paths, segment, wta_segment, quantile(t.upload, 0.5), quantile(t.rectify, 0.5),
+                  quantile(t.census, 0.5), quantile(t.aggregate, 0.5), quantile(t.wta, 0.5), quantile(t.lr_median, 0.5),
+                  quantile(t.dic, 0.5), quantile(t.download, 0.5), e2e, quantile(t.total, 0.99), 1000.0 / e2e,
+                  t.flight_hz, quantile(t.band, 0.5));
+            }
+            std::fflush(stdout);
+          }
+        }
       }
     }
   }

@@ -12,11 +12,17 @@
 // maps that reach past the raw border: the strips must equal the reference's byte for byte, and the
 // stages after them are compared as above; the band estimate's coarse pass (submit_coarse: the strips
 // averaged over 1-4 columns and 2 rows, matched without DIC) must give the reference's coarse image and
-// coarse disparity exactly. Exit status: 0 all equal, 1 a difference, 2 usage, 77 no usable Vulkan
-// device (CTest's skip code). Needs only the Vulkan loader at run time.
-//   rutd-gpu-check [--device NAME|INDEX] [--seed N] [--cases N] [--aggregate-threads N]
-// --aggregate-threads: the aggregation's workgroup size (VulkanSgm); several subgroups' worth checks its
-// shared-memory path.
+// coarse disparity exactly. Exit status: 0 all equal, 1 a difference or a device, shader or pipeline that
+// fails, 2 usage, 77 no Vulkan driver at all (CTest's skip code: no loader, or a loader that finds no
+// device; a driver whose devices cannot run the matcher is a failure) or, with --aggregate-half, a device
+// without shaderFloat16. Needs only the Vulkan loader at run time.
+//   rutd-gpu-check [--device NAME|INDEX] [--seed N] [--cases N] [--aggregate-threads N] [--wta-threads N]
+//                  [--aggregate-half]
+// --aggregate-threads, --wta-threads: the aggregation's and the winner-takes-all's workgroup sizes
+// (VulkanSgmOptions); several subgroups' worth checks their shared-memory paths. --aggregate-half: the
+// aggregation's step in packed half floats (VulkanSgmOptions::aggregate_half). Every third case walks
+// the winner-takes-all's rows in segments (VulkanSgmOptions::wta_segment) of a random length, drawn from
+// a generator of its own so that the cases are those of earlier builds.
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -139,15 +145,21 @@ int main(int argc, char** argv) {
   std::string device;
   unsigned seed = 1;
   int cases = 12;
-  int aggregate_threads = 0;
+  int aggregate_threads = 0, wta_threads = 0;
+  bool aggregate_half = false;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     if (a == "--device" && i + 1 < argc) device = argv[++i];
     else if (a == "--seed" && i + 1 < argc) seed = static_cast<unsigned>(std::strtoul(argv[++i], nullptr, 10));
     else if (a == "--cases" && i + 1 < argc) cases = std::atoi(argv[++i]);
     else if (a == "--aggregate-threads" && i + 1 < argc) aggregate_threads = std::atoi(argv[++i]);
+    else if (a == "--wta-threads" && i + 1 < argc) wta_threads = std::atoi(argv[++i]);
+    else if (a == "--aggregate-half") aggregate_half = true;
     else {
-      std::fprintf(stderr, "usage: %s [--device NAME|INDEX] [--seed N] [--cases N] [--aggregate-threads N]\n", argv[0]);
+      std::fprintf(stderr,
+                   "usage: %s [--device NAME|INDEX] [--seed N] [--cases N] [--aggregate-threads N] [--wta-threads N] "
+                   "[--aggregate-half]\n",
+                   argv[0]);
       return 2;
     }
   }
@@ -161,6 +173,21 @@ int main(int argc, char** argv) {
   }
   list.resize(static_cast<std::size_t>(cases));
 
+  // Skipped only where no Vulkan driver exists; from here on any device error fails the check.
+  try {
+    if (list_gpu_devices().empty()) {
+      std::printf("SKIP: no Vulkan driver: the Vulkan loader finds no device\n");
+      return 77;
+    }
+  } catch (const GpuError& e) {
+    std::printf("SKIP: no Vulkan driver: %s\n", e.what());
+    return 77;
+  }
+  VulkanSgmOptions options;
+  options.aggregate_threads = aggregate_threads;
+  options.wta_threads = wta_threads;
+  options.aggregate_half = aggregate_half;
+  std::mt19937 segment_rng(seed * 7919u + 1u);
   std::unique_ptr<VulkanSgm> sgm;
   int failures = 0;
   for (std::size_t k = 0; k < list.size(); ++k) {
@@ -196,21 +223,22 @@ int main(int argc, char** argv) {
       columns.row_begin = 0;
       columns.row_end = c.height;
     }
+    options.wta_segment = k % 3 == 2 ? std::uniform_int_distribution<int>(16, 200)(segment_rng) : 0;
     try {
-      sgm = std::make_unique<VulkanSgm>(device, c.width, c.height, c.num_disparities, 0, aggregate_threads);
+      sgm = std::make_unique<VulkanSgm>(device, c.width, c.height, c.num_disparities, options);
     } catch (const GpuError& e) {
-      if (k == 0) {
-        std::printf("SKIP: no usable Vulkan device: %s\n", e.what());
+      if (k == 0 && aggregate_half && std::string(e.what()).find("shaderFloat16") != std::string::npos) {
+        std::printf("SKIP: %s\n", e.what());  // an optional feature the device lacks
         return 77;
       }
       std::printf("FAIL case %zu: %s\n", k, e.what());
       return 1;
     }
     if (k == 0)
-      std::printf(
-          "device %d: %s (%s, subgroup %u%s)\n", sgm->device().index, sgm->device().name.c_str(),
-          sgm->device().type.c_str(), sgm->device().subgroup_size,
-          aggregate_threads > 0 ? (", aggregation workgroup " + std::to_string(aggregate_threads)).c_str() : "");
+      std::printf("device %d: %s%s%s%s\n", sgm->device().index, describe(sgm->device()).c_str(),
+                  aggregate_threads > 0 ? ("; aggregation workgroup " + std::to_string(aggregate_threads)).c_str() : "",
+                  wta_threads > 0 ? ("; winner-takes-all workgroup " + std::to_string(wta_threads)).c_str() : "",
+                  aggregate_half ? "; aggregation in half floats" : "");
     // Gentle waves down two cases in three, so that column windows spanning many rows refine; the rest
     // keep waves that reject many of them.
     // Raw cases: the pair is rendered a little larger than the strip (or smaller: the maps then reach
@@ -291,14 +319,16 @@ int main(int argc, char** argv) {
                       (coarse_ok ? " identical" : " DIFFERS");
       }
     }
-    std::printf("case %2zu: %4dx%-4d%s band %3d+%-3d paths %d%s P1 %2d P2 %3d uniq %2d lr %2d median %d: ", k, c.width,
-                c.height, raw ? (" from " + std::to_string(raw_w) + "x" + std::to_string(raw_h) + " raw").c_str() : "",
-                c.min_disparity, c.num_disparities, params.paths,
-                params.segment > 0 ? (" rows in " + std::to_string(params.segment) + "+" +
-                                      std::to_string(params.segment_run_in) + " px segments")
-                                         .c_str()
-                                   : "",
-                params.p1, params.p2, params.uniqueness, params.lr_max_diff, params.median ? 1 : 0);
+    std::printf(
+        "case %2zu: %4dx%-4d%s band %3d+%-3d paths %d%s%s P1 %2d P2 %3d uniq %2d lr %2d median %d: ", k, c.width,
+        c.height, raw ? (" from " + std::to_string(raw_w) + "x" + std::to_string(raw_h) + " raw").c_str() : "",
+        c.min_disparity, c.num_disparities, params.paths,
+        params.segment > 0 ? (" rows in " + std::to_string(params.segment) + "+" +
+                              std::to_string(params.segment_run_in) + " px segments")
+                                 .c_str()
+                           : "",
+        options.wta_segment > 0 ? (" WTA in " + std::to_string(options.wta_segment) + " px segments").c_str() : "",
+        params.p1, params.p2, params.uniqueness, params.lr_max_diff, params.median ? 1 : 0);
     if (s != GpuStatus::Ok) {
       std::printf("FAIL (%s)\n", std::string(to_string(s)).c_str());
       ++failures;

@@ -35,6 +35,9 @@ class DisparityEngine {
  public:
   virtual ~DisparityEngine() = default;
   virtual EngineKind kind() const = 0;
+  // Where the engine computes, for logs and reports: "CPU" for the CPU engines; the GPU engine names its
+  // device and driver, or says that it runs on the CPU reference instead and why.
+  virtual std::string device() const { return "CPU"; }
   // left/right: rectified CV_8UC1 strips of equal size. disparity: CV_32FC1 of the same size in pixels,
   // with the engine's sub-pixel precision kept (1/16 px for OpenCV), NaN where invalid (including the
   // left min_disparity + num_disparities columns, which have no match in the right strip). Reuses

@@ -21,6 +21,7 @@
 #include "gpu/dic.hpp"
 #include "gpu/rectify.hpp"
 #include "gpu/sgm.hpp"
+#include "gpu/vulkan_faults.hpp"
 
 namespace rutd::gpu {
 
@@ -36,18 +37,56 @@ struct GpuDeviceInfo {
   int index = -1;    // in the loader's enumeration order
   std::string name;  // VkPhysicalDeviceProperties::deviceName
   std::string type;  // "discrete", "integrated", "virtual", "cpu", "other"
+  // The driver's name and version (VkPhysicalDeviceDriverProperties: "NVIDIA 580.159.04", "llvmpipe Mesa
+  // 22.3.6 (LLVM 15.0.6)"), or its raw driverVersion where the device predates Vulkan 1.2.
+  std::string driver;
   std::uint32_t subgroup_size = 0;
-  bool usable = false;  // Vulkan 1.1, subgroup arithmetic in compute shaders
+  bool usable = false;  // Vulkan 1.1, subgroup arithmetic and shuffles in compute, 16-bit storage buffers
+  bool half = false;    // shaderFloat16: VulkanSgmOptions::aggregate_half can run
 };
 
 // Every physical device the loader reports. Throws GpuError when there is no Vulkan loader or instance.
 std::vector<GpuDeviceInfo> list_gpu_devices();
+
+// Logical devices this process has opened so far (one per VulkanSgm: resize() keeps its device).
+std::uint64_t gpu_devices_opened();
 
 // Device time of each stage of one frame, ms (GPU timestamps; all 0 when the queue has none). rectify_ms
 // is 0 for rectified input; census_ms includes the DIC's B-spline prefilter.
 struct GpuStageTimes {
   double upload_ms = 0, rectify_ms = 0, census_ms = 0, aggregate_ms = 0, wta_ms = 0, lr_median_ms = 0, dic_ms = 0,
          download_ms = 0;
+};
+
+// A frame's disparity as the device downloads it, 16-bit fixed point: px = offset_px + value * step_px,
+// kInvalid where invalid. offset_px is an integer, the band's min_disparity less a margin that holds every
+// disparity the DIC may give (DicKernelConfig::max_shift_px, plus max_gradient times the half height of a
+// column window's block); step_px the finest power of two whose 65,535 steps span the band and both
+// margins, never coarser than 1/64 px (the matcher's own resolution, which it therefore keeps exactly). On
+// the daemon's 48-row strip with the default DIC (margins of 15 px): 1/1024 px for bands up to 32 px,
+// 1/512 px up to 96, 1/256 px up to 224 and 1/128 px up to 512, the most the matcher takes.
+struct DisparityView {
+  static constexpr std::uint16_t kInvalid = 0xFFFF;
+  const std::uint16_t* data = nullptr;  // in the slot's download buffer (collect())
+  int width = 0, height = 0;
+  std::size_t stride = 0;  // elements between rows
+  float offset_px = 0, step_px = 0;
+  float at(int x, int y) const;  // px, NaN invalid
+  // Row y as px (NaN invalid) into `out` (width floats).
+  void decode_row(int y, float* out) const;
+};
+
+// What collect() hands back: views into the slot's mapped download buffer, valid until that slot is
+// submitted again (two submits later), read in place with no copy.
+struct FrameOutput {
+  DisparityView disparity;  // empty (data nullptr) for a rectification-only frame
+  // Raw input: the rectified strips, width() x height() bytes, rows strip_stride bytes apart.
+  const std::uint8_t* strip_left = nullptr;
+  const std::uint8_t* strip_right = nullptr;
+  std::size_t strip_stride = 0;
+  // submit_coarse(): the coarse left image (the disparity's size), rows coarse_stride bytes apart.
+  const std::uint8_t* coarse_left = nullptr;
+  std::size_t coarse_stride = 0;
 };
 
 // Where collect() copies the rectified strips of a frame submitted raw: width() x height() bytes each,
@@ -62,18 +101,38 @@ struct StripsOut {
   std::size_t coarse_stride = 0;
 };
 
+// One line naming the device, its type, driver and subgroup size, for logs and reports.
+std::string describe(const GpuDeviceInfo& info);
+
+struct VulkanSgmOptions {
+  // Bounds the wait for one frame; <= 0: 2 s on a GPU, 300 s on a CPU device (lavapipe takes seconds per
+  // full frame).
+  int timeout_ms = 0;
+  // The aggregation's workgroup size, 0..128; 0 is the device's subgroup size (its fast path). Tests give
+  // several subgroups' worth to run its shared-memory path, which devices that choose a smaller subgroup
+  // than they report take.
+  int aggregate_threads = 0;
+  // The winner-takes-all's workgroup size, 0..128, as aggregate_threads; and the px of a row one of its
+  // workgroups walks (0: whole rows; else >= 16, each starting num_disparities - 1 px early for the right
+  // view), so that a device walks a row's segments in parallel.
+  int wta_threads = 0;
+  int wta_segment = 0;
+  // The aggregation's step in packed half floats, two disparities an operation (GpuDeviceInfo::half; else
+  // the constructor throws); the same path costs exactly. Off: 32-bit integers.
+  bool aggregate_half = false;
+  // Tests only: faults injected at the lowest Vulkan calls (vulkan_faults.hpp); nullptr: none. The
+  // caller keeps it alive while the matcher exists.
+  VulkanFaults* faults = nullptr;
+};
+
 class VulkanSgm {
  public:
   // device: "" picks the first usable device preferring discrete, then integrated, virtual, CPU; a decimal
   // number picks that index; anything else the first usable device whose name contains it (case-
   // insensitive). Every buffer is allocated here for width x height pairs and up to max_disparities.
-  // timeout_ms bounds the wait for one frame; <= 0: 2 s on a GPU, 300 s on a CPU device (lavapipe takes
-  // seconds per full frame). Throws GpuError naming the device and the failing call.
-  // aggregate_threads: the aggregation's workgroup size; 0 is the device's subgroup size (its fast path).
-  // Tests give several subgroups' worth to run its shared-memory path, which devices that choose a
-  // smaller subgroup than they report take.
-  VulkanSgm(const std::string& device, int width, int height, int max_disparities, int timeout_ms = 0,
-            int aggregate_threads = 0);
+  // Throws GpuError naming the device and the failing call.
+  VulkanSgm(const std::string& device, int width, int height, int max_disparities,
+            const VulkanSgmOptions& options = {});
   ~VulkanSgm();
   VulkanSgm(const VulkanSgm&) = delete;
   VulkanSgm& operator=(const VulkanSgm&) = delete;
@@ -81,6 +140,12 @@ class VulkanSgm {
   const GpuDeviceInfo& device() const;
   int width() const;
   int height() const;
+  int max_disparities() const;
+
+  // Buffers for a new size and disparity count, on the same device with the same kernels (a device is
+  // opened once per matcher): waits for the frames in flight, which are then lost, and forgets the
+  // rectification (set_rectification() again). Throws GpuError (the matcher is then unusable).
+  void resize(int width, int height, int max_disparities);
 
   // Rectification on the device: from now on submit_raw() takes raw images of maps.raw_width x
   // maps.raw_height and resamples them into width() x height() strips through `maps` (rectify.hpp) before
@@ -88,12 +153,12 @@ class VulkanSgm {
   // a failed allocation or upload.
   void set_rectification(const RectifyMaps& maps);
 
-  // Two frames can be in flight: submit() copies the pair into the staging memory of slot `ticket`
-  // (alternating 0, 1) and queues its work; collect() waits for that slot and copies the disparity (px,
-  // NaN invalid; rows of `stride` floats) out. Submitting the next pair before collecting the current one
-  // overlaps its host copy with this frame's device work. Images must be width() x height(). dic: refine
-  // on the device (dic.hpp; census also runs the B-spline prefilter) and return the refined disparity;
-  // nullptr: return the matcher's.
+  // Two frames can be in flight: submit() packs the pair straight into the mapped upload buffer of slot
+  // `ticket` (alternating 0, 1) and queues its work; collect() waits for that slot and reads its mapped
+  // download buffer. Submitting the next pair before collecting the current one overlaps its packing with
+  // this frame's device work. Images must be width() x height(). dic: refine on the device (dic.hpp;
+  // census also runs the B-spline prefilter) and return the refined disparity; nullptr: return the
+  // matcher's.
   GpuStatus submit(const ImageView& left, const ImageView& right, SgmBand band, const SgmConfig& params,
                    const DicKernelConfig* dic, int& ticket);
   // As submit(), from raw images (set_rectification() first, else InvalidInput): rectified on the device,
@@ -106,8 +171,13 @@ class VulkanSgm {
   // (rows of grid.width floats at `stride`), the strips and the coarse left image.
   GpuStatus submit_coarse(const ImageView& left_raw, const ImageView& right_raw, int scale, SgmBand band,
                           const SgmConfig& params, int& ticket);
-  // strips: for a frame submitted raw, where its rectified strips go (nullptr: not copied); must be
-  // nullptr for a frame submitted rectified. disparity may be nullptr for a rectification-only frame.
+  // Waits for frame `ticket` and points `out` at its results in the slot's download buffer (FrameOutput:
+  // no copy); times: the stages' device times, where the queue has timestamps.
+  GpuStatus collect(int ticket, FrameOutput& out, GpuStageTimes* times = nullptr);
+  // As above, then the disparity decoded into `disparity` (px, NaN invalid; rows of `stride` floats) and
+  // the strips copied to `strips`: for a frame submitted raw, where its rectified strips go (nullptr: not
+  // copied); must be nullptr for a frame submitted rectified. disparity may be nullptr for a
+  // rectification-only frame.
   GpuStatus collect(int ticket, float* disparity, std::size_t stride, GpuStageTimes* times = nullptr,
                     const StripsOut* strips = nullptr);
   // submit() then collect().

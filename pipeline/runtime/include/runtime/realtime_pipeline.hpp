@@ -59,6 +59,9 @@ class MeasurerStages final : public PipelineStages {
   bool rectify(FrameWork& work) override { return measurer_.rectify(work); }
   void match(FrameWork& work) override { measurer_.match(work, context_); }
   void extract(FrameWork& work) override { measurer_.extract(work, workspace_); }
+  // The match stage's engine (DisparityEngine::device() says where it computes). Thread: the match
+  // stage's, or any once the pipeline has stopped.
+  const DisparityEngine& engine() const { return *context_.engine; }
 
  private:
   const StereoMeasurer& measurer_;
