@@ -9,6 +9,7 @@
 #include <spdlog/spdlog.h>
 
 #include "core/input_error.hpp"
+#include "daemon/build_info.hpp"
 #include "daemon/commands.hpp"
 
 int main(int argc, char** argv) {
@@ -17,6 +18,9 @@ int main(int argc, char** argv) {
   spdlog::set_pattern("%Y-%m-%dT%H:%M:%S.%e %^%l%$ %v");
 
   CLI::App app{"rutd: real-time tyre rut depth from a calibrated stereo camera pair"};
+  // The package version and the commit: what a field engineer reads off a vehicle PC (the CAN bus carries
+  // the same in RutSoftwareVersion).
+  app.set_version_flag("--version", "rutd " + rutd::version_line(), "Print the package version and git commit");
   app.require_subcommand(1);
   int exit_code = 0;
   rutd::add_run_command(app, exit_code);

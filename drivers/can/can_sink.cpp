@@ -7,6 +7,8 @@
 namespace rutd {
 namespace {
 
+constexpr std::int64_t kVersionPeriodNs = 1'000'000'000;
+
 // candump logs carry wall-clock time, as candump itself writes them, so they line up with other logs.
 std::int64_t wall_clock_ns() {
   return std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::system_clock::now().time_since_epoch())
@@ -16,8 +18,13 @@ std::int64_t wall_clock_ns() {
 }  // namespace
 
 CanSink::CanSink(const CanIdConfig& ids, SocketCanBus* bus, CandumpLogWriter* log, std::ostream* log_stream,
-                 std::function<bool()> recording_failed)
-    : encoder_(ids), bus_(bus), log_(log), log_stream_(log_stream), recording_failed_(std::move(recording_failed)) {}
+                 std::function<bool()> recording_failed, std::optional<SoftwareVersion> version)
+    : encoder_(ids),
+      bus_(bus),
+      log_(log),
+      log_stream_(log_stream),
+      recording_failed_(std::move(recording_failed)),
+      version_(version) {}
 
 void CanSink::emit(const CanFrame& frame) {
   if (bus_ != nullptr && !bus_->send(frame)) return;
@@ -31,7 +38,7 @@ void CanSink::publish(const FrameWork& work, const SensorHealth&) {
   if (log_stream_ != nullptr) log_stream_->flush();
 }
 
-void CanSink::publish_status(const SensorHealth& health, std::int64_t) {
+void CanSink::publish_status(const SensorHealth& health, std::int64_t t_ns) {
   SensorHealth h = health;
   if (bus_ != nullptr) {
     bus_->poll_errors();
@@ -46,6 +53,10 @@ void CanSink::publish_status(const SensorHealth& health, std::int64_t) {
   // itself), and for each status period in which a measurement CSV row was lost.
   if (recording_failed_ && recording_failed_()) h.recording_error = true;
   emit(encoder_.encode_status(h));
+  if (version_ && (!version_sent_ns_ || t_ns - *version_sent_ns_ >= kVersionPeriodNs)) {
+    emit(encoder_.encode_version(*version_));
+    version_sent_ns_ = t_ns;
+  }
   if (log_stream_ != nullptr) log_stream_->flush();
 }
 
