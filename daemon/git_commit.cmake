@@ -9,8 +9,19 @@ set(commit "")
 set(modified 0)
 find_program(GIT_PROGRAM git)
 if(GIT_PROGRAM)
-  execute_process(COMMAND ${GIT_PROGRAM} -C ${SOURCE_DIR} rev-parse --verify --quiet HEAD
-                  RESULT_VARIABLE status OUTPUT_VARIABLE head OUTPUT_STRIP_TRAILING_WHITESPACE ERROR_QUIET)
+  # Only SOURCE_DIR's own checkout counts: a source archive unpacked inside another repository (a packaging
+  # repository, say) must not report that repository's commit.
+  execute_process(COMMAND ${GIT_PROGRAM} -C ${SOURCE_DIR} rev-parse --show-toplevel
+                  RESULT_VARIABLE status OUTPUT_VARIABLE top OUTPUT_STRIP_TRAILING_WHITESPACE ERROR_QUIET)
+  file(REAL_PATH "${SOURCE_DIR}" source_dir)
+  if(status EQUAL 0)
+    file(REAL_PATH "${top}" top)
+  endif()
+  set(head "")
+  if(status EQUAL 0 AND top STREQUAL source_dir)
+    execute_process(COMMAND ${GIT_PROGRAM} -C ${SOURCE_DIR} rev-parse --verify --quiet HEAD
+                    RESULT_VARIABLE status OUTPUT_VARIABLE head OUTPUT_STRIP_TRAILING_WHITESPACE ERROR_QUIET)
+  endif()
   if(status EQUAL 0 AND head MATCHES "^[0-9a-f]+$")
     set(commit ${head})
     # --no-optional-locks: never take the index lock while someone runs git in the same checkout.

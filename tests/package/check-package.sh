@@ -34,7 +34,7 @@ dpkg-deb --info "$deb" | sed -n 's/^ \([A-Z][A-Za-z-]*:\)/  \1/p'
 
 # lintian: no error.
 status=0
-lintian --info --pedantic --tag-display-limit 0 --fail-on error "$deb" >"$out/lintian.txt" 2>&1 || status=$?
+lintian --display-info --pedantic --tag-display-limit 0 --fail-on error "$deb" >"$out/lintian.txt" 2>&1 || status=$?
 sed 's/^/  /' "$out/lintian.txt" | grep -v 'running with root privileges' || true
 errors=$(grep -c '^E: ' "$out/lintian.txt" || true)
 check lintian "$([ "$status" = 0 ] && [ "$errors" = 0 ] && echo 1 || echo 0)" "exit $status, $errors errors"
