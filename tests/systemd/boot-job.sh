@@ -283,9 +283,23 @@ check unconfigured_not_started "$(prop ActiveState)" "not_running" \
   "$([ $status = 0 ] && [ $said = 1 ] && [ "$(systemctl is-enabled "$unit" 2>/dev/null)" = enabled ] &&
     not_running && [ "$starts" = 0 ] && echo 1 || echo 0)" \
   "(dpkg -i exit $status; enabled: $(systemctl is-enabled "$unit" 2>/dev/null); start jobs: $starts; postinst said why: $said)"
+
+# 14. Started all the same, as at every boot of a vehicle PC not configured yet: rutd fails once with the
+# reason (exit 2, bad input) and is not restarted (RestartPreventExitStatus=2), so no loop every
+# RestartSec fills the journal.
+restarts=$(prop NRestarts)
+since=$(date +%s)
+systemctl start "$unit" >/dev/null 2>&1
+wait_for 60 is_state failed
+sleep 8  # four RestartSec periods: a restart would have come
+reason=$(journalctl -u "$unit" --since "@$since" -o cat --no-pager | grep -c 'source\.aravis\.left')
+check unconfigured_start_fails_once "$(($(prop NRestarts) - restarts))" "=0" \
+  "$([ "$(prop NRestarts)" = "$restarts" ] && [ "$(prop ActiveState)" = failed ] && [ "$(prop ExecMainStatus)" = 2 ] &&
+    [ "$reason" -ge 1 ] && echo 1 || echo 0)" \
+  "(restarts; state $(prop ActiveState), exit status $(prop ExecMainStatus), journal lines naming source.aravis.left: $reason)"
 dpkg -P rutd </dev/null >/dev/null 2>&1
 
-# 14. A machine without one of the dependencies dpkg-shlibdeps computed (yaml-cpp's library, unregistered
+# 15. A machine without one of the dependencies dpkg-shlibdeps computed (yaml-cpp's library, unregistered
 # here): dpkg refuses to configure rutd with its own message, so nothing is enabled or started.
 dependency=$(dpkg-deb --field "$PACKAGE_A" Depends | tr ',' '\n' | sed -n 's/^ *\(libyaml-cpp[^ ]*\).*/\1/p')
 dpkg --remove --force-depends "$dependency" </dev/null >/var/tmp/rutd-dpkg-unregister.log 2>&1

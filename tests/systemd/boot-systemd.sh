@@ -97,7 +97,7 @@ grep -E '^RUTD-(FIGURE|INFO)' "$work/console.txt" || true
 grep '^RUTD-CHECK' "$work/console.txt" | awk '{ printf "  %-36s %-10s %-24s %s", $2, $3, $4, $5; for (i = 6; i <= NF; i++) printf " %s", $i; print "" }'
 [ "$status" = 0 ] || { echo "boot-systemd: run-guest.sh failed ($status)"; exit 1; }
 grep -q '^RUTD-GUEST-EXIT=0$' "$work/console.txt" || { echo "boot-systemd: the job failed or never ran"; exit 1; }
-expected=14
+expected=15
 found=$(grep -c '^RUTD-CHECK .* PASS' "$work/console.txt" || true)
 [ "$found" = "$expected" ] || { echo "boot-systemd: $found of $expected checks passed"; exit 1; }
 echo "boot-systemd: all $expected checks passed"
