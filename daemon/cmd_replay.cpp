@@ -16,6 +16,7 @@
 #include "can/can_sink.hpp"
 #include "can/candump_log.hpp"
 #include "core/input_error.hpp"
+#include "daemon/build_info.hpp"
 #include "daemon/commands.hpp"
 #include "daemon/measure_options.hpp"
 #include "daemon/no_output_status_sink.hpp"
@@ -62,7 +63,7 @@ struct CandumpOutput {
   CandumpOutput(const std::string& path, const std::string& interface, std::chrono::milliseconds no_output_after)
       : stream(open_output(path, file, "--candump")),
         writer(stream, interface),
-        can(CanIdConfig{}, nullptr, &writer, &stream, {}, CandumpTime::FrameClock),
+        can(CanIdConfig{}, nullptr, &writer, &stream, {}, CandumpTime::FrameClock, software_version()),
         sink(can, no_output_after, NoOutputStatusSink::Clock::Frames) {}
   std::ofstream file;
   std::ostream& stream;

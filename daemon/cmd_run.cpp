@@ -21,6 +21,7 @@
 
 #include "can/can_sink.hpp"
 #include "core/input_error.hpp"
+#include "daemon/build_info.hpp"
 #include "daemon/commands.hpp"
 #include "daemon/config.hpp"
 #include "daemon/dimensions.hpp"
@@ -31,6 +32,7 @@
 #include "daemon/stalling_stages.hpp"
 #include "daemon/stop_signal.hpp"
 #include "daemon/supervisor.hpp"
+#include "recording/calibration_file.hpp"
 #include "recording/frame_recorder.hpp"
 #include "recording/measurement_csv_sink.hpp"
 #include "runtime/realtime_pipeline.hpp"
@@ -44,6 +46,7 @@ struct RunOptions {
   std::uint64_t frames = 0;  // stop after this many published measurements; 0: until a signal
   std::optional<std::string> socketcan, candump, csv, record, size, engine, replay_dir;
   bool no_dic = false;
+  bool check = false;                                   // --check: see check_run
   std::optional<std::uint64_t> test_stall_match_after;  // tests only: see daemon/stalling_stages.hpp
 };
 
@@ -83,6 +86,18 @@ PipelineConfig pipeline_config(const RutdConfig& c) {
   // A recording's timestamps are its own time base, not this machine's clock.
   p.capture_clock_is_local = c.source != SourceKind::Replay;
   return p;
+}
+
+// --check: what `rutd run` would refuse at start-up, found without starting: the configuration (every key,
+// the cameras named), the calibration file the cameras need, a replay's recording. The cameras are not
+// opened: rutd waits for them when it runs. Throws InputError as run does (exit 2); prints one line and
+// returns 0 when rutd could start. The package's postinst starts the service only then.
+int check_run(const RunOptions& o) {
+  const RutdConfig c = effective_config(o);
+  if (c.source == SourceKind::Aravis) load_calibration(c.calibration);
+  if (c.source == SourceKind::Replay) make_source(c);
+  std::cout << "rutd: " << c.file << ": ready to run: source " << describe_source(c) << '\n';
+  return 0;
 }
 
 int run_daemon(const RunOptions& o, const RunInjection& injection) {
@@ -128,7 +143,8 @@ int run_daemon(const RunOptions& o, const RunInjection& injection) {
       return (r != nullptr && r->failed()) || csv_failed;
     };
   }
-  CanSink can(c.can, bus.get(), log.get(), candump_stream, std::move(recording_failed));
+  CanSink can(c.can, bus.get(), log.get(), candump_stream, std::move(recording_failed), CandumpTime::WallClock,
+              software_version());
   // The CAN status frame says NO_MEASUREMENT once nothing has been published for as long as it takes to
   // call a camera lost.
   NoOutputStatusSink can_status(can, c.pipeline.no_frame_timeout);
@@ -154,7 +170,7 @@ int run_daemon(const RunOptions& o, const RunInjection& injection) {
   install_stop_handlers();
   ServiceNotifier systemd;
   RealtimePipeline pipeline(*source, stages, fanout, pipeline_config(c));
-  spdlog::info("rutd {}: source {}, engine {}{}, CAN to {}{}{}", c.file, describe_source(c),
+  spdlog::info("rutd {}, {}: source {}, engine {}{}, CAN to {}{}{}", version_line(), c.file, describe_source(c),
                to_string(c.measurement.engine), c.measurement.dic ? " + DIC" : "",
                bus ? c.sinks.socketcan : std::string("no bus"),
                log ? (", candump log to " + (c.sinks.candump == "-" ? std::string("stdout") : c.sinks.candump)) : "",
@@ -228,11 +244,14 @@ void add_run_command(CLI::App& app, int& exit_code, RunInjection injection) {
   cmd->add_option("--engine", o->engine, "Disparity engine (measurement.engine)")
       ->check(CLI::IsMember({"bm", "sgbm", "sgbm3way", "hh4", "hh", "gpu", "sgmref"}));
   cmd->add_flag("--no-dic", o->no_dic, "No sub-pixel refinement (measurement.dic: false)");
+  cmd->add_flag("--check", o->check,
+                "Check the configuration and the calibration it names, then exit: 0 and one line when rutd could "
+                "start, else the error (exit 2)");
   // Hidden (empty group): a test switch, never for a vehicle. The watchdog test stalls a stage with it.
   cmd->add_option("--test-stall-match-after", o->test_stall_match_after,
                   "Tests only: the match stage stops returning after N pairs")
       ->group("");
-  cmd->callback([o, &exit_code, injection] { exit_code = run_daemon(*o, injection); });
+  cmd->callback([o, &exit_code, injection] { exit_code = o->check ? check_run(*o) : run_daemon(*o, injection); });
 }
 
 }  // namespace rutd

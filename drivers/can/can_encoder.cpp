@@ -42,6 +42,11 @@ constexpr Signal kRightObstructed{56, 8, 0.4, 0.0, 0.0, 100.0};
 constexpr int kFlagsStartBit = 16;
 constexpr int kDroppedStartBit = 40;
 constexpr int kDroppedBits = 24;
+constexpr int kVersionMajorStartBit = 16;  // then minor, patch: 8 bits each
+constexpr int kVersionModifiedBit = 40;
+constexpr int kVersionCommitUnknownBit = 41;
+constexpr int kVersionCommitStartBit = 44;
+constexpr int kVersionCommitBits = 20;
 
 constexpr std::uint64_t all_ones(int bits) { return (std::uint64_t{1} << bits) - 1; }
 
@@ -75,9 +80,10 @@ std::uint8_t status_nibble(RutStatus status) noexcept {
   return v < kRutStatusCount ? v : kUnknownStatus;
 }
 
-// Writes counter and status into byte 1, then the CRC into byte 0 (see the header for the layout).
-void protect(CanFrame& frame, std::uint16_t data_id, std::uint8_t counter, RutStatus status) noexcept {
-  frame.data[1] = static_cast<std::uint8_t>((status_nibble(status) << 4) | (counter & 0x0FU));
+// Writes the counter and the upper nibble (a status, or the version frame's revision) into byte 1, then
+// the CRC into byte 0 (see the header for the layout).
+void protect(CanFrame& frame, std::uint16_t data_id, std::uint8_t counter, std::uint8_t nibble) noexcept {
+  frame.data[1] = static_cast<std::uint8_t>(((nibble & 0x0FU) << 4) | (counter & 0x0FU));
   const std::array<std::uint8_t, 2> id_bytes{static_cast<std::uint8_t>(data_id & 0xFFU),
                                              static_cast<std::uint8_t>(data_id >> 8)};
   const std::uint8_t crc = crc8_sae_j1850(id_bytes);
@@ -96,7 +102,8 @@ std::string check_can_id_config(const CanIdConfig& ids) {
   const std::pair<const char*, std::uint32_t> pgns[] = {{"measurement1_pgn", ids.measurement1_pgn},
                                                         {"measurement2_pgn", ids.measurement2_pgn},
                                                         {"status_pgn", ids.status_pgn},
-                                                        {"conditions_pgn", ids.conditions_pgn}};
+                                                        {"conditions_pgn", ids.conditions_pgn},
+                                                        {"version_pgn", ids.version_pgn}};
   for (const auto& [name, pgn] : pgns) {
     if (pgn > 0x3FFFF) return std::string(name) + ": PGN must be 0..0x3FFFF";
     if (((pgn >> 8) & 0xFFU) < 0xF0) return std::string(name) + ": must be a broadcast (PDU2, PF >= 0xF0) PGN";
@@ -104,7 +111,8 @@ std::string check_can_id_config(const CanIdConfig& ids) {
   const std::pair<const char*, std::uint32_t> ids11[] = {{"measurement1_id_11bit", ids.measurement1_id_11bit},
                                                          {"measurement2_id_11bit", ids.measurement2_id_11bit},
                                                          {"status_id_11bit", ids.status_id_11bit},
-                                                         {"conditions_id_11bit", ids.conditions_id_11bit}};
+                                                         {"conditions_id_11bit", ids.conditions_id_11bit},
+                                                         {"version_id_11bit", ids.version_id_11bit}};
   for (const auto& [name, id] : ids11) {
     if (id > 0x7FF) return std::string(name) + ": must be 0..0x7FF";
   }
@@ -132,7 +140,7 @@ int CanEncoder::encode_measurement(const RutMeasurement& m, std::array<CanFrame,
   put(first.data, kWidth, m.width_mm, ok);
   put(first.data, kQuality, m.quality * 100.0, ok);
   put(first.data, kArea, m.area_mm2, ok);
-  protect(first, kMeasurement1DataId, measurement_counter_, m.status);
+  protect(first, kMeasurement1DataId, measurement_counter_, status_nibble(m.status));
 
   CanFrame& second = out[1];
   second = make_frame(ids_.measurement2_pgn, ids_.measurement2_id_11bit);
@@ -140,7 +148,7 @@ int CanEncoder::encode_measurement(const RutMeasurement& m, std::array<CanFrame,
   put(second.data, kRightPile, m.right_pile_mm, ok);
   put(second.data, kSlope, m.ground_slope_deg, ok);
   put(second.data, kCenterX, m.center_x_mm, ok);
-  protect(second, kMeasurement2DataId, measurement_counter_, m.status);
+  protect(second, kMeasurement2DataId, measurement_counter_, status_nibble(m.status));
 
   last_measurement_counter_ = measurement_counter_;
   measurement_counter_ = next_counter(measurement_counter_);
@@ -154,7 +162,7 @@ CanFrame CanEncoder::encode_conditions(const RutMeasurement& m) const noexcept {
   put(frame.data, kVerticalDisparity, m.vertical_disparity_px, true);
   put(frame.data, kLeftObstructed, m.obstructed_left * 100.0, true);
   put(frame.data, kRightObstructed, m.obstructed_right * 100.0, true);
-  protect(frame, kConditionsDataId, last_measurement_counter_, m.status);
+  protect(frame, kConditionsDataId, last_measurement_counter_, status_nibble(m.status));
   return frame;
 }
 
@@ -166,8 +174,21 @@ CanFrame CanEncoder::encode_status(const SensorHealth& h) noexcept {
   put(frame.data, kFrameRate, h.frame_rate_hz, true);
   put_bits(frame.data, kDroppedStartBit, kDroppedBits,
            std::min<std::uint64_t>(h.dropped_frames, all_ones(kDroppedBits) - 1));
-  protect(frame, kStatusDataId, status_counter_, h.last_status);
+  protect(frame, kStatusDataId, status_counter_, status_nibble(h.last_status));
   status_counter_ = next_counter(status_counter_);
+  return frame;
+}
+
+CanFrame CanEncoder::encode_version(const SoftwareVersion& v) noexcept {
+  CanFrame frame = make_frame(ids_.version_pgn, ids_.version_id_11bit);
+  const std::uint8_t numbers[] = {v.major, v.minor, v.patch};
+  for (int i = 0; i < 3; ++i) put_bits(frame.data, kVersionMajorStartBit + 8 * i, 8, numbers[i]);
+  put_bits(frame.data, kVersionModifiedBit, 1, v.modified ? 1U : 0U);
+  put_bits(frame.data, kVersionCommitUnknownBit, 1, v.commit_known ? 0U : 1U);
+  put_bits(frame.data, kVersionCommitStartBit, kVersionCommitBits,
+           v.commit_known ? v.commit_prefix & all_ones(kVersionCommitBits) : all_ones(kVersionCommitBits));
+  protect(frame, kVersionDataId, version_counter_, v.revision);
+  version_counter_ = next_counter(version_counter_);
   return frame;
 }
 

@@ -7,6 +7,8 @@
 namespace rutd {
 namespace {
 
+constexpr std::int64_t kVersionPeriodNs = 1'000'000'000;
+
 // candump logs carry wall-clock time, as candump itself writes them, so they line up with other logs.
 std::int64_t wall_clock_ns() {
   return std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::system_clock::now().time_since_epoch())
@@ -16,13 +18,14 @@ std::int64_t wall_clock_ns() {
 }  // namespace
 
 CanSink::CanSink(const CanIdConfig& ids, SocketCanBus* bus, CandumpLogWriter* log, std::ostream* log_stream,
-                 std::function<bool()> recording_failed, CandumpTime log_time)
+                 std::function<bool()> recording_failed, CandumpTime log_time, std::optional<SoftwareVersion> version)
     : encoder_(ids),
       bus_(bus),
       log_(log),
       log_stream_(log_stream),
       recording_failed_(std::move(recording_failed)),
-      log_time_(log_time) {}
+      log_time_(log_time),
+      version_(version) {}
 
 void CanSink::emit(const CanFrame& frame, std::int64_t frame_t_ns) {
   if (bus_ != nullptr && !bus_->send(frame)) return;
@@ -51,6 +54,10 @@ void CanSink::publish_status(const SensorHealth& health, std::int64_t t_ns) {
   // itself), and for each status period in which a measurement CSV row was lost.
   if (recording_failed_ && recording_failed_()) h.recording_error = true;
   emit(encoder_.encode_status(h), t_ns);
+  if (version_ && (!version_sent_ns_ || t_ns - *version_sent_ns_ >= kVersionPeriodNs)) {
+    emit(encoder_.encode_version(*version_), t_ns);
+    version_sent_ns_ = t_ns;
+  }
   if (log_stream_ != nullptr) log_stream_->flush();
 }
 

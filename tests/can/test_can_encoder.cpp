@@ -190,6 +190,17 @@ void expect_status(Expectations& e, int index, int counter, const SensorHealth& 
   e[{index, "DroppedFrames"}] = exact(std::min<double>(h.dropped_frames, 16777214.0));
 }
 
+void expect_version(Expectations& e, int index, int counter, const SoftwareVersion& v) {
+  e[{index, "RutV_Counter"}] = exact(counter);
+  e[{index, "SwPackageRevision"}] = exact(v.revision);
+  e[{index, "SwVersionMajor"}] = exact(v.major);
+  e[{index, "SwVersionMinor"}] = exact(v.minor);
+  e[{index, "SwVersionPatch"}] = exact(v.patch);
+  e[{index, "SwModified"}] = exact(v.modified);
+  e[{index, "SwCommitUnknown"}] = exact(!v.commit_known);
+  e[{index, "SwCommit"}] = v.commit_known ? exact(v.commit_prefix) : not_available();
+}
+
 // ---------------------------------------------------------------------------------------------------
 // Inputs: edge cases, every status, and random values spilling past both ends of every range.
 
@@ -266,10 +277,24 @@ SensorHealth health_case(std::mt19937& rng, int k) {
   return h;
 }
 
+// The ends of every field, a commit unknown, and random versions.
+SoftwareVersion version_case(std::mt19937& rng, int k) {
+  const SoftwareVersion fixed[] = {{0, 1, 0, 1, 0xA5905, true, false},
+                                   {254, 254, 254, 14, 0xFFFFF, true, true},
+                                   {0, 0, 0, 0, 0, true, false},
+                                   {3, 2, 1, 2, 0, false, true}};
+  if (k < 4) return fixed[k];
+  auto byte = [&](int max) { return static_cast<std::uint8_t>(std::uniform_int_distribution<int>(0, max)(rng)); };
+  std::bernoulli_distribution coin(0.5);
+  return {byte(254), byte(254), byte(254), byte(14), std::uniform_int_distribution<std::uint32_t>(0, 0xFFFFF)(rng),
+          coin(rng), coin(rng)};
+}
+
 constexpr std::int64_t kT0 = 1'700'000'000'000'000'000 + 987'654'321;  // not on a microsecond
 
-// Encodes all cases in the order a daemon would send them (a status frame after every 10th measurement)
-// and writes them to `log_path`. Returns the expectations and the frames in log order.
+// Encodes all cases in the order a daemon would send them (a status frame after every 10th measurement, a
+// version frame after every third status frame) and writes them to `log_path`. Returns the expectations and the frames
+// in log order.
 std::pair<Expectations, std::vector<CanFrame>> write_log(const fs::path& log_path, std::vector<std::int64_t>& times) {
   CanEncoder encoder;
   std::ofstream log(log_path);
@@ -300,6 +325,14 @@ std::pair<Expectations, std::vector<CanFrame>> write_log(const fs::path& log_pat
       frames.push_back(encoder.encode_status(h));
       times.push_back(t + 1'000'000);
       EXPECT_TRUE(writer.write(frames.back(), times.back()));
+      if (status_count % 3 == 0) {
+        const int version_count = status_count / 3;
+        const SoftwareVersion v = version_case(rng, version_count);
+        expect_version(expected, static_cast<int>(frames.size()), version_count % 15, v);
+        frames.push_back(encoder.encode_version(v));
+        times.push_back(t + 1'100'000);
+        EXPECT_TRUE(writer.write(frames.back(), times.back()));
+      }
       ++status_count;
     }
   }
@@ -318,7 +351,9 @@ TEST(CanEncoder, DefaultIdentifiersAreJ1939ProprietaryB) {
   EXPECT_EQ(status.id, 0x18FF52A0U);
   const CanFrame conditions = encoder.encode_conditions(RutMeasurement{});
   EXPECT_EQ(conditions.id, 0x18FF53A0U);
-  for (const CanFrame& f : {out[0], out[1], status, conditions}) {
+  const CanFrame version = encoder.encode_version(SoftwareVersion{});
+  EXPECT_EQ(version.id, 0x18FF5FA0U);
+  for (const CanFrame& f : {out[0], out[1], status, conditions, version}) {
     EXPECT_TRUE(f.extended);
     EXPECT_EQ(f.len, 8);
   }
@@ -359,6 +394,18 @@ TEST(CanEncoder, ElevenBitIdentifiersCarryTheSamePayload) {
   const CanFrame s = standard.encode_status(h);
   EXPECT_EQ(s.id, 0x352U);
   EXPECT_EQ(s.data, extended.encode_status(h).data);
+  const SoftwareVersion v{1, 2, 3, 4, 0x12345, true, false};
+  const CanFrame version = standard.encode_version(v);
+  EXPECT_EQ(version.id, 0x35FU);
+  EXPECT_EQ(version.data, extended.encode_version(v).data);
+}
+
+// The worked example of can/can_encoder.hpp, byte for byte (bytes and CRC worked out by hand there).
+TEST(CanEncoder, VersionFrameIsTheWorkedExample) {
+  CanEncoder encoder;
+  std::ostringstream os;
+  CandumpLogWriter(os, "can0").write(encoder.encode_version({0, 1, 0, 1, 0xA5905, true, false}), 1'000'000);
+  EXPECT_EQ(os.str(), "(0000000000.001000) can0 18FF5FA0#3B100001005090A5\n");
 }
 
 TEST(CanEncoder, RejectsUnusableIdentifiers) {
@@ -373,6 +420,8 @@ TEST(CanEncoder, RejectsUnusableIdentifiers) {
   EXPECT_THROW(CanEncoder(with([](CanIdConfig& c) { c.status_pgn = 0xEF00; })), std::invalid_argument);  // PDU1
   EXPECT_THROW(CanEncoder(with([](CanIdConfig& c) { c.measurement1_pgn = 0x4FF50; })), std::invalid_argument);
   EXPECT_THROW(CanEncoder(with([](CanIdConfig& c) { c.measurement2_id_11bit = 0x800; })), std::invalid_argument);
+  EXPECT_THROW(CanEncoder(with([](CanIdConfig& c) { c.version_pgn = 0xEA00; })), std::invalid_argument);  // PDU1
+  EXPECT_THROW(CanEncoder(with([](CanIdConfig& c) { c.version_id_11bit = 0x800; })), std::invalid_argument);
   EXPECT_NE(check_can_id_config(with([](CanIdConfig& c) { c.priority = 9; })).find("priority"), std::string::npos);
 }
 

@@ -86,5 +86,50 @@ TEST(CanSinkStatus, BusOffAndTransmitDropsReachTheStatusFrame) {
   }
 }
 
+// RutSoftwareVersion: with the first status frame, then with the first status frame a second or more after
+// the last one (status time), decoded by canmatrix; a sink given no version sends none.
+TEST(CanSinkStatus, SoftwareVersionGoesOutWithTheFirstStatusThenOnceASecond) {
+  if (!test::have_canmatrix()) GTEST_SKIP() << "needs /usr/bin/python3 with canmatrix (python3-canmatrix)";
+  const test::TempDir tmp;
+  const auto with_path = tmp.path() / "with.log";
+  const auto without_path = tmp.path() / "without.log";
+  const SoftwareVersion version{2, 17, 3, 4, 0xC0FFE, true, true};
+  {
+    std::ofstream with_stream(with_path);
+    std::ofstream without_stream(without_path);
+    CandumpLogWriter with_log(with_stream, "can0");
+    CandumpLogWriter without_log(without_stream, "can0");
+    CanSink with(CanIdConfig{}, nullptr, &with_log, &with_stream, {}, CandumpTime::WallClock, version);
+    CanSink without(CanIdConfig{}, nullptr, &without_log, &without_stream);
+    // 100 ms status period from t = 5 s for 2.55 s: versions at 5.0, 6.0 and 7.0 s.
+    for (std::int64_t t = 5'000'000'000; t <= 7'550'000'000; t += 100'000'000) {
+      with.publish_status(SensorHealth{}, t);
+      without.publish_status(SensorHealth{}, t);
+    }
+  }
+  bool ok = false;
+  const auto frames = test::decode_candump(with_path, ok);
+  EXPECT_TRUE(ok) << "the decoder reported a CRC, counter or unknown frame";
+  std::vector<std::size_t> version_at;  // index among the status frames of the frame each version follows
+  std::size_t statuses = 0;
+  for (const auto& f : frames) {
+    if (f.message == "RutSensorStatus") ++statuses;
+    if (f.message != "RutSoftwareVersion") continue;
+    version_at.push_back(statuses - 1);
+    EXPECT_EQ(f.phys.at("SwVersionMajor"), 2);
+    EXPECT_EQ(f.phys.at("SwVersionMinor"), 17);
+    EXPECT_EQ(f.phys.at("SwVersionPatch"), 3);
+    EXPECT_EQ(f.phys.at("SwPackageRevision"), 4);
+    EXPECT_EQ(f.phys.at("SwCommit"), 0xC0FFE);
+    EXPECT_EQ(f.phys.at("SwModified"), 1);
+    EXPECT_EQ(f.phys.at("SwCommitUnknown"), 0);
+  }
+  EXPECT_EQ(statuses, 26u);
+  EXPECT_EQ(version_at, (std::vector<std::size_t>{0, 10, 20}));
+  bool without_ok = false;
+  EXPECT_TRUE(test::frames_of(test::decode_candump(without_path, without_ok), "RutSoftwareVersion").empty());
+  EXPECT_TRUE(without_ok);
+}
+
 }  // namespace
 }  // namespace rutd

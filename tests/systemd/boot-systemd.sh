@@ -1,14 +1,23 @@
 #!/usr/bin/env bash
-# rutd under a real systemd as PID 1: installs the build as `cmake --install` does (into a staging
-# folder), boots Debian's kernel under qemu with the host's systemd on an overlay of the host's root
-# (tests/can/qemu, RUTD_GUEST_INIT=systemd), and runs boot-job.sh there: rutd.service becomes active
-# after READY=1, is restarted after kill -9, stays activating (no watchdog) while its first pair is
-# stuck, is killed by the watchdog and restarted when a stage hangs once ready, stops cleanly, keeps the
-# journal quiet, and keeps its hardening score. Prints the console and a table of the checks.
+# rutd under a real systemd as PID 1, installed as a vehicle PC gets it: the Debian package of this build
+# (CPack, packaging/deb.cmake), and a rebuild of the same source one package revision higher for the
+# upgrade. Boots Debian's kernel under qemu with the host's systemd on an overlay of the host's root
+# (tests/can/qemu, RUTD_GUEST_INIT=systemd), and runs boot-job.sh there: the package installs with dpkg
+# and enables rutd.service, which becomes active at boot after READY=1, is restarted after kill -9, stays
+# activating (no watchdog) while its first pair is stuck, is killed by the watchdog and restarted when a
+# stage hangs once ready, stops cleanly, keeps the journal quiet and keeps its hardening score; then the
+# upgrade restarts it on the new version with the edited configuration kept (the new version on CAN too),
+# removal stops it and removes the unit, purge leaves nothing under /etc/rutd, a fresh install on the
+# vehicle configuration (no cameras set) enables it without starting it, and an install on a machine
+# without one of the computed dependencies is refused by dpkg. Prints the console and a table of checks.
 #
 # Usage: boot-systemd.sh BUILD_DIR
+# The rebuild lives in BUILD_DIR-upgrade (beside BUILD_DIR, so that ccache, whose base_dir makes paths
+# relative, finds BUILD_DIR's objects), kept between runs, configured as BUILD_DIR is (compiler, flags,
+# ccache, or ccache when installed) with the program alone: about a minute with ccache's objects, several
+# minutes when rutd compiles afresh.
 # Exit status: 0 all checks passed, 1 a check failed or the guest did not run the job, 77 (skip) when
-# qemu, the kernel, busybox-static or systemd cannot be had here.
+# qemu, the kernel, busybox-static, systemd or dpkg-dev cannot be had here.
 set -euo pipefail
 
 build=$(cd "${1:?usage: boot-systemd.sh BUILD_DIR}" && pwd)
@@ -17,29 +26,61 @@ qemu_dir=$here/../can/qemu
 
 [ -x /lib/systemd/systemd ] && command -v systemctl >/dev/null ||
   { echo "boot-systemd: SKIPPED: no systemd on this machine (Debian package systemd)" >&2; exit 77; }
+command -v dpkg-shlibdeps >/dev/null && command -v cpack >/dev/null ||
+  { echo "boot-systemd: SKIPPED: the package needs dpkg-shlibdeps (Debian package dpkg-dev) and cpack" >&2; exit 77; }
 [ -x "$build/bin/rutd" ] || { echo "boot-systemd: $build/bin/rutd is not built" >&2; exit 1; }
 
 # The job must live outside /mnt and /run (tmpfs in the guest); the build tree is seen through 9p.
 work=$build/systemd-boot
 rm -rf "$work"
 mkdir -p "$work"
-DESTDIR=$work/stage cmake --install "$build" >"$work/install.log"
-tar -C "$work/stage" --owner=0 --group=0 -cf "$work/stage.tar" .
+elapsed() { awk -v a="$1" -v b="$(date +%s.%N)" 'BEGIN { printf "%.1f", b - a }'; }
+cache() { sed -n "s/^$1:[A-Z]*=//p" "$build/CMakeCache.txt"; }
+
+# Package A: this build, as CPack packages it (the revision its cache says).
+t0=$(date +%s.%N)
+(cd "$build" && cpack -G DEB -D CPACK_OUTPUT_FILE_PREFIX="$work/a" >"$work/cpack-a.log" 2>&1) ||
+  { cat "$work/cpack-a.log"; echo "boot-systemd: cpack of $build failed"; exit 1; }
+package_a_s=$(elapsed "$t0")
+revision=$(cache RUTD_PACKAGE_REVISION)
+[ "$revision" -lt 14 ] || { echo "boot-systemd: RUTD_PACKAGE_REVISION $revision leaves no higher one for the upgrade"; exit 1; }
+# Package B: the same source rebuilt one revision higher, configured as this build is.
+t0=$(date +%s.%N)
+rebuild=$build-upgrade
+launcher=$(cache CMAKE_CXX_COMPILER_LAUNCHER)
+[ -n "$launcher" ] || launcher=$(command -v ccache || true)
+cmake -S "$(cache CMAKE_HOME_DIRECTORY)" -B "$rebuild" -DCMAKE_BUILD_TYPE="$(cache CMAKE_BUILD_TYPE)" \
+  -DCMAKE_CXX_COMPILER="$(cache CMAKE_CXX_COMPILER)" -DCMAKE_CXX_FLAGS="$(cache CMAKE_CXX_FLAGS)" \
+  -DCMAKE_EXE_LINKER_FLAGS="$(cache CMAKE_EXE_LINKER_FLAGS)" -DCMAKE_CXX_COMPILER_LAUNCHER="$launcher" \
+  -DRUTD_WERROR="$(cache RUTD_WERROR)" -DRUTD_GPU="$(cache RUTD_GPU)" -DRUTD_BUILD_TESTS=OFF -DRUTD_BUILD_BENCH=OFF \
+  -DRUTD_PACKAGE_REVISION=$((revision + 1)) -DCMAKE_SKIP_INSTALL_ALL_DEPENDENCY=ON >"$work/rebuild.log" 2>&1 &&
+  cmake --build "$rebuild" -j"$(nproc)" --target rutd >>"$work/rebuild.log" 2>&1 &&
+  (cd "$rebuild" && cpack -G DEB -D CPACK_OUTPUT_FILE_PREFIX="$work/b" >>"$work/rebuild.log" 2>&1) ||
+  { tail -40 "$work/rebuild.log"; echo "boot-systemd: the rebuild for the upgrade failed"; exit 1; }
+package_b_s=$(elapsed "$t0")
+package_a=$(ls "$work"/a/rutd_*.deb)
+package_b=$(ls "$work"/b/rutd_*.deb)
+echo "boot-systemd: $(basename "$package_a") in $package_a_s s, $(basename "$package_b") (rebuilt) in $package_b_s s"
 # Emulation (TCG) measures about a hundred times slower than the vehicle PC (160x120 with the default
 # engine: 0.4 s a pair, next to the 0.5 s stale limit): a small image, the quickest engine, and a
 # watchdog period that leaves room for an emulated CPU that the host does not always schedule (with 5 s,
 # a host busy with other work made a healthy rutd miss it). Passed to the guest's unit as drop-ins.
-cat >"$work/params" <<'EOF'
+cat >"$work/params" <<EOF
 RUTD_OPTIONS="--size 160x120 --engine bm --no-dic"
 WATCHDOG_S=10
 STALL_AFTER=10
+PACKAGE_A=$package_a
+PACKAGE_B=$package_b
+VERSION_A=$(dpkg-deb --field "$package_a" Version)
+VERSION_B=$(dpkg-deb --field "$package_b" Version)
+SOURCE_DIR=$(cache CMAKE_HOME_DIRECTORY)
 EOF
 cp "$here/boot-job.sh" "$work/job.sh"
 printf '#!/bin/sh\nexec /bin/sh %s %s "$@"\n' "$work/job.sh" "$work" >"$work/run-job.sh"
 
 start=$(date +%s.%N)
 status=0
-RUTD_GUEST_INIT=systemd "$qemu_dir/run-guest.sh" "$build/can-qemu" "$work/run-job.sh" 400 \
+RUTD_GUEST_INIT=systemd "$qemu_dir/run-guest.sh" "$build/can-qemu" "$work/run-job.sh" 900 \
   >"$work/console.log" 2>"$work/run-guest.err" || status=$?
 wall=$(awk -v a="$start" -v b="$(date +%s.%N)" 'BEGIN { printf "%.1f", b - a }')
 if [ "$status" = 77 ]; then
@@ -51,12 +92,12 @@ cat "$work/console.txt"
 cat "$work/run-guest.err" >&2
 
 echo
-echo "boot-systemd: guest run $wall s wall (boot, checks, power-off)"
+echo "boot-systemd: packages $package_a_s s ($(basename "$package_a")) and $package_b_s s ($(basename "$package_b"), rebuilt); guest run $wall s wall (boot, checks, power-off)"
 grep -E '^RUTD-(FIGURE|INFO)' "$work/console.txt" || true
 grep '^RUTD-CHECK' "$work/console.txt" | awk '{ printf "  %-36s %-10s %-24s %s", $2, $3, $4, $5; for (i = 6; i <= NF; i++) printf " %s", $i; print "" }'
 [ "$status" = 0 ] || { echo "boot-systemd: run-guest.sh failed ($status)"; exit 1; }
 grep -q '^RUTD-GUEST-EXIT=0$' "$work/console.txt" || { echo "boot-systemd: the job failed or never ran"; exit 1; }
-expected=7
+expected=15
 found=$(grep -c '^RUTD-CHECK .* PASS' "$work/console.txt" || true)
 [ "$found" = "$expected" ] || { echo "boot-systemd: $found of $expected checks passed"; exit 1; }
 echo "boot-systemd: all $expected checks passed"

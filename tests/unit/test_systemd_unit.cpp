@@ -16,7 +16,7 @@ TEST(SystemdUnit, VerifiesWithSystemdAnalyze) {
     GTEST_SKIP() << "needs systemd-analyze (Debian package systemd)";
   std::string unit = test::read_text(std::string(RUTD_SOURCE_DIR) + "/systemd/rutd.service.in");
   ASSERT_FALSE(unit.empty());
-  unit = std::regex_replace(unit, std::regex("@CMAKE_INSTALL_FULL_BINDIR@/rutd"), RUTD_BINARY);
+  unit = std::regex_replace(unit, std::regex("@RUTD_BINDIR@/rutd"), RUTD_BINARY);
   unit = std::regex_replace(unit, std::regex("@RUTD_CONFIG_DIR@"), "/etc/rutd");
   unit = std::regex_replace(unit, std::regex("@RUTD_DOC_DIR@"), "/usr/share/doc/rutd");
   ASSERT_FALSE(std::regex_search(unit, std::regex("@[A-Z_]+@"))) << "unsubstituted variable left in the unit";

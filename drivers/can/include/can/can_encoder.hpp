@@ -9,17 +9,18 @@
 //   RutMeasurement2  PGN 0xFF51  -> 0x18FF51A0
 //   RutSensorStatus  PGN 0xFF52  -> 0x18FF52A0
 //   RutConditions    PGN 0xFF53  -> 0x18FF53A0
-// or, with `extended = false`, the 11-bit identifiers of CanIdConfig (0x350, 0x351, 0x352, 0x353).
+//   RutSoftwareVersion PGN 0xFF5F -> 0x18FF5FA0
+// or, with `extended = false`, the 11-bit identifiers of CanIdConfig (0x350, 0x351, 0x352, 0x353, 0x35F).
 //
-// Payload, all three frames 8 bytes, signals little-endian (Intel), unsigned, physical = raw * factor +
+// Payload, every frame 8 bytes, signals little-endian (Intel), unsigned, physical = raw * factor +
 // offset. Protection in the AUTOSAR E2E profile 1 layout:
 //   byte 0          CRC-8/SAE-J1850 (can/crc8.hpp: init 0xFF, xor-out 0xFF) over the two Data ID
 //                   bytes (low byte first, then high byte) followed by payload bytes 1..7
 //   byte 1 bits 0-3 rolling counter 0..14, then back to 0 (15 is never sent, as in profile 1). Both
 //                   measurement frames of one measurement carry the same value; the status frame
-//                   has its own counter.
+//                   and the version frame have their own counters.
 //   Data IDs        RutMeasurement1 0xFF50, RutMeasurement2 0xFF51, RutSensorStatus 0xFF52,
-//                   RutConditions 0xFF53. They are
+//                   RutConditions 0xFF53, RutSoftwareVersion 0xFF5F. They are
 //                   fixed per message (not derived from the configured identifiers) so a receiver's
 //                   check does not depend on the addressing. Unlike a strict profile 1 CRC (which
 //                   starts from 0x00 and ends without xor), the catalogue parameters above are used.
@@ -49,6 +50,21 @@
 //                                  CAN transmit drops, bus off, recording error
 //                    bits 24..39   frame rate  0.01 Hz   0..655.34 Hz
 //                    bits 40..63   dropped frames (count since start) 0..16777214
+//   RutSoftwareVersion  what software runs (core/software_version.hpp); the status frames' companion, sent
+//                    with the first status frame and then once a second; own counter
+//                    byte 1 bits 4-7  package revision 0..14 (the Debian revision: 0.1.0-1 -> 1)
+//                    bits 16..23   version major 0..254
+//                    bits 24..31   version minor 0..254
+//                    bits 32..39   version patch 0..254
+//                    bit 40        modified: built from a checkout with changes not committed
+//                    bit 41        commit unknown: not built from a git checkout (the commit is all ones)
+//                    bits 42..43   0
+//                    bits 44..63   the git commit's first five hex digits as a number, most significant
+//                                  digit first: commit a5905c3... -> 0xA5905
+//                    Worked example: version 0.1.0-1 from commit a5905c3 with no changes, counter 0:
+//                    byte 1 0x10 (revision 1, counter 0); bytes 2..4 00 01 00; byte 5 0x50 (flags clear,
+//                    bits 44..47 the commit's low digit 5); byte 6 0x90, byte 7 0xA5 (the rest of 0xA5905);
+//                    CRC over 5F FF 10 00 01 00 50 90 A5 = 0x3B. In candump: 18FF5FA0#3B100001005090A5.
 // Values outside a signal's range saturate to its end (quality in 0..1 maps to 0..100 %). A value that
 // is not available is sent as all ones in the signal's bits (the J1939 convention): every measurement
 // field when status != Ok, and any non-finite field; a frame rate that is not finite.
@@ -59,6 +75,7 @@
 #include "can/can_frame.hpp"
 #include "core/rut_measurement.hpp"
 #include "core/sensor_health.hpp"
+#include "core/software_version.hpp"
 
 namespace rutd {
 
@@ -70,10 +87,12 @@ struct CanIdConfig {
   std::uint32_t measurement2_pgn = 0xFF51;
   std::uint32_t status_pgn = 0xFF52;
   std::uint32_t conditions_pgn = 0xFF53;
+  std::uint32_t version_pgn = 0xFF5F;
   std::uint32_t measurement1_id_11bit = 0x350;  // 0..0x7FF
   std::uint32_t measurement2_id_11bit = 0x351;
   std::uint32_t status_id_11bit = 0x352;
   std::uint32_t conditions_id_11bit = 0x353;
+  std::uint32_t version_id_11bit = 0x35F;
 };
 
 // Empty if `ids` is usable, else what is wrong, naming the field (for the configuration loader).
@@ -89,6 +108,7 @@ inline constexpr std::uint16_t kMeasurement1DataId = 0xFF50;
 inline constexpr std::uint16_t kMeasurement2DataId = 0xFF51;
 inline constexpr std::uint16_t kStatusDataId = 0xFF52;
 inline constexpr std::uint16_t kConditionsDataId = 0xFF53;
+inline constexpr std::uint16_t kVersionDataId = 0xFF5F;
 
 class CanEncoder {  // not thread-safe: one publisher thread owns it. Keeps the rolling counters.
  public:
@@ -106,6 +126,9 @@ class CanEncoder {  // not thread-safe: one publisher thread owns it. Keeps the 
   // The RutSensorStatus frame. Advances the status counter.
   CanFrame encode_status(const SensorHealth& h) noexcept;
 
+  // The RutSoftwareVersion frame. Advances its own counter.
+  CanFrame encode_version(const SoftwareVersion& v) noexcept;
+
   const CanIdConfig& ids() const noexcept { return ids_; }
 
  private:
@@ -115,6 +138,7 @@ class CanEncoder {  // not thread-safe: one publisher thread owns it. Keeps the 
   std::uint8_t measurement_counter_ = 0;
   std::uint8_t last_measurement_counter_ = 0;
   std::uint8_t status_counter_ = 0;
+  std::uint8_t version_counter_ = 0;
 };
 
 }  // namespace rutd

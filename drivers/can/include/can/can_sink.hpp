@@ -6,6 +6,7 @@
 #include <cstdint>
 #include <functional>
 #include <iosfwd>
+#include <optional>
 
 #include "can/can_encoder.hpp"
 #include "can/candump_log.hpp"
@@ -27,15 +28,19 @@ enum class CandumpTime : std::uint8_t {
 // to the candump log (when configured), so the log is exactly what the bus got. With a bus, frames the
 // kernel refused (full queue, failed write) are counted, reported in the status message (CanTxDrops) and
 // not logged. RecordingError is whatever recording_failed answers at each status (the daemon: the raw
-// recording has failed, or a measurement CSV row was lost since the last status).
+// recording has failed, or a measurement CSV row was lost since the last status). The software version
+// goes out as RutSoftwareVersion with the first status frame and then once a second (status time), so a
+// receiver that joins the bus late learns within a second what is sending.
 class CanSink final : public MeasurementSink {
  public:
   // bus and log may be null (not configured); neither is owned, both must outlive the sink. log_stream
   // is flushed per call so a reader of a pipe sees frames as they are sent. recording_failed, when set,
   // is asked on the publish thread at every status (FrameRecorder::failed, which is thread-safe): the
-  // CAN library knows nothing of recordings.
+  // CAN library knows nothing of recordings. version: what RutSoftwareVersion says (the daemon:
+  // daemon/build_info.hpp's software_version()); none: the frame is not sent (tests of other frames).
   CanSink(const CanIdConfig& ids, SocketCanBus* bus, CandumpLogWriter* log, std::ostream* log_stream,
-          std::function<bool()> recording_failed = {}, CandumpTime log_time = CandumpTime::WallClock);
+          std::function<bool()> recording_failed = {}, CandumpTime log_time = CandumpTime::WallClock,
+          std::optional<SoftwareVersion> version = {});
   void publish(const PublishedFrame& frame) override;
   void publish_status(const SensorHealth& health, std::int64_t t_ns) override;
 
@@ -51,6 +56,8 @@ class CanSink final : public MeasurementSink {
   CandumpTime log_time_;
   std::array<CanFrame, 2> frames_{};
   std::uint64_t not_sent_at_last_status_ = 0;
+  std::optional<SoftwareVersion> version_;
+  std::optional<std::int64_t> version_sent_ns_;  // status time of the last RutSoftwareVersion frame
 };
 
 }  // namespace rutd
