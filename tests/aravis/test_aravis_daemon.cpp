@@ -120,7 +120,7 @@ std::vector<test::DecodedFrame> decode(const std::filesystem::path& log, const s
 class AravisDaemon : public ::testing::Test {
  protected:
   void SetUp() override {
-    if (const std::string why = test::fake_rig_unavailable(); !why.empty()) GTEST_SKIP() << why;
+    if (const std::string why = test::fake_rig_unavailable(); !why.empty()) RUTD_SKIP_NEEDS_INSTALLED(why);
   }
 
   // A configuration for the fake rig, calibration saved next to it.

@@ -39,7 +39,7 @@ Decoded read_decoded(const std::string& path) {
 
 TEST(ReplayCandump, DecodedFramesEqualTheCsvAndTheTruth) {
   if (std::system("/usr/bin/python3 -c 'import canmatrix' >/dev/null 2>&1") != 0)
-    GTEST_SKIP() << "needs /usr/bin/python3 with canmatrix (Debian package python3-canmatrix)";
+    RUTD_SKIP_NEEDS_INSTALLED("needs /usr/bin/python3 with canmatrix (Debian package python3-canmatrix)");
   const test::TempDir tmp;
   const std::string rec = (tmp.path() / "rec").string(), csv = (tmp.path() / "m.csv").string(),
                     log = (tmp.path() / "can.log").string(), decoded = (tmp.path() / "decoded.csv").string();

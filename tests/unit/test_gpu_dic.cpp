@@ -14,6 +14,7 @@
 #include "known_disparity.hpp"
 #include "pipeline/dic_refine.hpp"
 #include "pipeline/disparity.hpp"
+#include "skip_policy.hpp"
 
 namespace rutd {
 namespace {
@@ -93,7 +94,7 @@ TEST(GpuDic, EngineRefinesOnTheDeviceAsTheReference) {
     cv::Mat refined;
     DicStats stats;
     if (!engine->compute_refined(pair.left, pair.right, {16, 48}, config, refined, stats))
-      GTEST_SKIP() << "no usable Vulkan device: the GPU engine runs as sgmref, which does not refine";
+      RUTD_SKIP_GPU_FELL_BACK("the GPU engine runs as sgmref, which does not refine");
     cv::Mat initial;
     make_cpu_engine(EngineKind::SgmRef)->compute(pair.left, pair.right, {16, 48}, initial);
     gpu::DicKernelConfig p;
@@ -214,7 +215,7 @@ TEST(GpuDic, EngineRefinesColumnWindowsOnTheDeviceAsTheReference) {
     cv::Mat refined;
     DicStats stats;
     if (!engine->compute_refined(pair.left, pair.right, {16, 48}, config, refined, stats))
-      GTEST_SKIP() << "no usable Vulkan device: the GPU engine runs as sgmref, which does not refine";
+      RUTD_SKIP_GPU_FELL_BACK("the GPU engine runs as sgmref, which does not refine");
     cv::Mat initial;
     make_cpu_engine(EngineKind::SgmRef)->compute(pair.left, pair.right, {16, 48}, initial);
     const gpu::DicKernelConfig p = column_params(c);
