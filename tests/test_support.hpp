@@ -18,6 +18,8 @@
 
 #include <opencv2/core.hpp>
 
+#include "skip_policy.hpp"
+
 namespace rutd::test {
 
 // OpenCV's parallel_for_ runs on TBB, which ThreadSanitizer cannot see into: TBB's joins look like races

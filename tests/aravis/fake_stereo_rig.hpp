@@ -22,6 +22,7 @@
 
 #include <gtest/gtest.h>
 
+#include "skip_policy.hpp"
 #include "synthetic/synthetic_renderer.hpp"
 
 namespace rutd::test {

@@ -7,6 +7,8 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -117,14 +119,43 @@ std::vector<test::DecodedFrame> decode(const std::filesystem::path& log, const s
   return test::read_decoded_csv(out);
 }
 
+// The camera driver's summary lines ("cameras: ..."; every logging.stats_period_s and once at close) in
+// `log`, in order: its cumulative counts of incomplete buffers, camera losses and returns, per side.
+struct CameraSummary {
+  std::array<long long, 2> incomplete{}, lost{}, back{};
+};
+std::vector<CameraSummary> camera_summaries(const std::string& log) {
+  static const std::regex line(
+      "cameras: .* (\\d+) incomplete; right .* (\\d+) incomplete; lost left (\\d+) right "
+      "(\\d+), back left (\\d+) right (\\d+)");
+  std::vector<CameraSummary> out;
+  for (std::sregex_iterator m(log.begin(), log.end(), line), end; m != end; ++m) {
+    CameraSummary s;
+    for (std::size_t side = 0; side < 2; ++side) {
+      s.incomplete[side] = std::stoll((*m)[1 + side]);
+      s.lost[side] = std::stoll((*m)[3 + side]);
+      s.back[side] = std::stoll((*m)[5 + side]);
+    }
+    out.push_back(s);
+  }
+  return out;
+}
+
+// The lines the daemon had written to `log` when it was `bytes` long.
+std::string log_until(const std::string& text, std::uintmax_t bytes) {
+  const std::string head = text.substr(0, std::min<std::size_t>(bytes, text.size()));
+  return head.substr(0, head.rfind('\n') + 1);
+}
+
 class AravisDaemon : public ::testing::Test {
  protected:
   void SetUp() override {
-    if (const std::string why = test::fake_rig_unavailable(); !why.empty()) GTEST_SKIP() << why;
+    if (const std::string why = test::fake_rig_unavailable(); !why.empty()) RUTD_SKIP_NEEDS_INSTALLED(why);
   }
 
-  // A configuration for the fake rig, calibration saved next to it.
-  std::filesystem::path write_config(const test::FakeStereoRig& rig) {
+  // A configuration for the fake rig, calibration saved next to it; a camera silent for stall_timeout_ms
+  // is lost (source.aravis.stall_timeout_ms, 120 by default).
+  std::filesystem::path write_config(const test::FakeStereoRig& rig, int stall_timeout_ms = 120) {
     save_calibration((dir_.path() / "calibration.yaml").string(), rig.calibration());
     const auto path = dir_.path() / "rutd.yaml";
     std::ofstream(path) << "source:\n"
@@ -135,6 +166,9 @@ class AravisDaemon : public ::testing::Test {
                            "    roi: [0, 0, 640, 480]\n"
                            "    fps: 25\n"
                            "    pairing_window_ms: 8   # the fake cameras' timestamps jitter by ms\n"
+                           "    stall_timeout_ms: "
+                        << stall_timeout_ms
+                        << "\n"
                            "calibration: "
                         << (dir_.path() / "calibration.yaml").string()
                         << "\n"
@@ -323,7 +357,11 @@ TEST_F(AravisDaemon, ImagesThatNoLongerFitTheCalibrationRaiseCalibrationInvalid)
 // the tail is not a failure; a NoCamera stuck after the fault is.
 TEST_F(AravisDaemon, CameraBufferFaultsAreFlaggedAndMeasuringResumes) {
   test::FakeStereoRig rig(scene(), 6);
-  const auto config = write_config(rig);
+  // Cameras lost after 400 ms without a buffer, not 120 (RunMeasures checks that one): a loaded machine
+  // starves the fake cameras' threads for over 120 ms several times a run, and each such stall, with
+  // its reconnection, raised NoCamera on a few status frames of the tail (up to half of them under a
+  // parallel build). The faults' 1.5 s is well beyond either.
+  const auto config = write_config(rig, 400);
   const auto csv = dir_.path() / "m.csv";
   for (const char* fault : {"corrupt", "short", "timeout"}) {
     SCOPED_TRACE(fault);
@@ -334,11 +372,13 @@ TEST_F(AravisDaemon, CameraBufferFaultsAreFlaggedAndMeasuringResumes) {
     ASSERT_GE(wait_for_lines(csv, 31, 0s, 60s), 31u) << test::read_text(log);
     std::this_thread::sleep_for(8s);  // the window ends 5.5 s after the first pop
     const std::int64_t tail_ns = wall_ns();
+    const std::uintmax_t log_at_tail = std::filesystem::file_size(log);
     // Then at least 3 s and 40 more measurements, up to 30 s: reconnecting after a stall storm is slow on
     // a loaded machine.
     const std::size_t after_window = count_lines(csv);
     wait_for_lines(csv, after_window + 40, 3s, 30s);
     ASSERT_TRUE(daemon.running()) << test::read_text(log);
+    const std::uintmax_t log_at_stop = std::filesystem::file_size(log);
     const std::int64_t stop_ns = wall_ns();
     EXPECT_EQ(daemon.stop(), 0) << test::read_text(log);
     const std::string text = test::read_text(log);
@@ -404,11 +444,34 @@ TEST_F(AravisDaemon, CameraBufferFaultsAreFlaggedAndMeasuringResumes) {
     std::printf("  injected %lld; driver: %lld incomplete, lost %lld, back %lld\n", injected, incomplete, lost, back);
     if (std::string(fault) == "corrupt") {
       EXPECT_GE(incomplete, injected) << text;
-      EXPECT_LE(incomplete, injected + 5) << "more incomplete buffers than injected\n" << text;
+      // A loaded machine loses GVSP packets over loopback now and then, and Aravis hands such a frame over
+      // as incomplete too: up to a dozen in a run under a parallel build, most while the cameras start. The
+      // injected ones are told apart by when they came: the 1.5 s window lies within two consecutive
+      // periods of the driver's summary (logged 2 s apart at least), whose increase must hold every
+      // injected buffer once, and at most 5 the machine lost in those 4 s.
+      const std::vector<CameraSummary> s = camera_summaries(log_until(text, log_at_stop));
+      long long window = 0;
+      for (std::size_t i = 0; i < s.size(); ++i) {
+        const long long now = s[i].incomplete[0] + s[i].incomplete[1];
+        const long long before = i >= 2 ? s[i - 2].incomplete[0] + s[i - 2].incomplete[1] : 0;
+        window = std::max(window, now - before);
+      }
+      std::printf("  incomplete within the fault's two summary periods: %lld\n", window);
+      EXPECT_GE(window, injected) << text;
+      EXPECT_LE(window, injected + 5) << "more incomplete buffers than injected\n" << text;
     }
     if (std::string(fault) == "timeout") {
-      EXPECT_GT(lost, 0) << "a camera silent for 1.5 s must be declared lost\n" << text;
-      EXPECT_EQ(back, lost) << text;
+      // Every loss before the tail (the fault's among them) came back by the end. A spontaneous stall of
+      // the fake cameras on a loaded machine in the last moments before the stop may still be
+      // reconnecting then; the tail's checks above catch a camera that stays lost.
+      const std::vector<CameraSummary> at_tail = camera_summaries(log_until(text, log_at_tail));
+      const std::vector<CameraSummary> all = camera_summaries(text);
+      ASSERT_FALSE(at_tail.empty() || all.empty()) << text;
+      EXPECT_GT(at_tail.back().lost[0] + at_tail.back().lost[1], 0)
+          << "a camera silent for 1.5 s must be declared lost\n"
+          << text;
+      for (std::size_t side = 0; side < 2; ++side)
+        EXPECT_GE(all.back().back[side], at_tail.back().lost[side]) << "side " << side << "\n" << text;
     }
     if (std::string(fault) == "short") {
       ASSERT_TRUE(std::regex_search(text, m, std::regex("stopped: .* errors (\\d+)/(\\d+)/(\\d+)"))) << text;

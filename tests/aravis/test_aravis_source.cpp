@@ -53,7 +53,7 @@ int view_index(const cv::Mat& image, const std::vector<cv::Mat>& views) {
 class AravisSource : public ::testing::Test {
  protected:
   void SetUp() override {
-    if (const std::string why = test::fake_rig_unavailable(); !why.empty()) GTEST_SKIP() << why;
+    if (const std::string why = test::fake_rig_unavailable(); !why.empty()) RUTD_SKIP_NEEDS_INSTALLED(why);
   }
 };
 

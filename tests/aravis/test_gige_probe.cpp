@@ -34,7 +34,7 @@ TEST(GigeProbe, CommandAndAnswerBytesFollowGvcp) {
 }
 
 TEST(GigeProbe, FakeCameraAnswersWhenPresentAndNotWhenGone) {
-  if (const std::string why = test::fake_rig_unavailable(); !why.empty()) GTEST_SKIP() << why;
+  if (const std::string why = test::fake_rig_unavailable(); !why.empty()) RUTD_SKIP_NEEDS_INSTALLED(why);
   ArvGvFakeCamera* camera = arv_gv_fake_camera_new(test::kFakeAddress[1], test::kFakeSerial[1]);
   ASSERT_TRUE(arv_gv_fake_camera_is_running(camera));
   using Clock = std::chrono::steady_clock;

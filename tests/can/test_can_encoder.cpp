@@ -487,7 +487,7 @@ TEST(CandumpLog, RejectsWhatIsNotAClassicDataFrame) {
 }
 
 TEST(CanDbc, CanmatrixDecodesEveryFrameToTheInputValues) {
-  if (const std::string missing = decoder_unavailable(); !missing.empty()) GTEST_SKIP() << missing;
+  if (const std::string missing = decoder_unavailable(); !missing.empty()) RUTD_SKIP_NEEDS_INSTALLED(missing);
   const fs::path dir = make_temp_dir();
   const fs::path log = dir / "rutd.log";
   std::vector<std::int64_t> times;
@@ -537,7 +537,7 @@ TEST(CanDbc, CanmatrixDecodesEveryFrameToTheInputValues) {
 }
 
 TEST(CanDbc, DecoderReportsCorruptionLossAndReordering) {
-  if (const std::string missing = decoder_unavailable(); !missing.empty()) GTEST_SKIP() << missing;
+  if (const std::string missing = decoder_unavailable(); !missing.empty()) RUTD_SKIP_NEEDS_INSTALLED(missing);
   const fs::path dir = make_temp_dir();
   const fs::path log = dir / "bad.log";
   CanEncoder encoder;
@@ -567,7 +567,7 @@ TEST(CanDbc, DecoderReportsCorruptionLossAndReordering) {
 
 TEST(CandumpLog, Log2ascConvertsEveryFrame) {
   if (!fs::exists("/usr/bin/log2asc") && run_shell("command -v log2asc >/dev/null 2>&1") != 0) {
-    GTEST_SKIP() << "log2asc (Debian package can-utils) is needed";
+    RUTD_SKIP_NEEDS_INSTALLED("log2asc (Debian package can-utils) is needed");
   }
   const fs::path dir = make_temp_dir();
   const fs::path log = dir / "rutd.log";

@@ -37,7 +37,7 @@ int drain(int fd) {
 }
 
 TEST(CanSinkStatus, BusOffAndTransmitDropsReachTheStatusFrame) {
-  if (!test::have_canmatrix()) GTEST_SKIP() << "needs /usr/bin/python3 with canmatrix (python3-canmatrix)";
+  if (!test::have_canmatrix()) RUTD_SKIP_NEEDS_INSTALLED("needs /usr/bin/python3 with canmatrix (python3-canmatrix)");
   int sv[2];
   ASSERT_EQ(::socketpair(AF_UNIX, SOCK_DGRAM | SOCK_NONBLOCK | SOCK_CLOEXEC, 0, sv), 0);
   const test::TempDir tmp;
@@ -89,7 +89,7 @@ TEST(CanSinkStatus, BusOffAndTransmitDropsReachTheStatusFrame) {
 // RutSoftwareVersion: with the first status frame, then with the first status frame a second or more after
 // the last one (status time), decoded by canmatrix; a sink given no version sends none.
 TEST(CanSinkStatus, SoftwareVersionGoesOutWithTheFirstStatusThenOnceASecond) {
-  if (!test::have_canmatrix()) GTEST_SKIP() << "needs /usr/bin/python3 with canmatrix (python3-canmatrix)";
+  if (!test::have_canmatrix()) RUTD_SKIP_NEEDS_INSTALLED("needs /usr/bin/python3 with canmatrix (python3-canmatrix)");
   const test::TempDir tmp;
   const auto with_path = tmp.path() / "with.log";
   const auto without_path = tmp.path() / "without.log";

@@ -29,6 +29,7 @@
 #include "can/can_encoder.hpp"
 #include "can/candump_log.hpp"
 #include "can/socketcan_bus.hpp"
+#include "skip_policy.hpp"
 
 namespace rutd {
 namespace {
@@ -261,7 +262,7 @@ class SocketCanBusOnKernel : public ::testing::Test {
  protected:
   void SetUp() override {
     const std::string why = kernel_can_unavailable();
-    if (!why.empty()) GTEST_SKIP() << why;
+    if (!why.empty()) RUTD_SKIP_NEEDS_HARDWARE(why);
   }
 };
 
@@ -398,7 +399,8 @@ class InterfaceState {
 TEST_F(SocketCanBusOnKernel, InterfaceDownIsAWriteError) {
   SocketCanBus sink(test_interface());
   InterfaceState state(test_interface());
-  if (!state.set_up(false)) GTEST_SKIP() << "cannot set " << test_interface() << " down (needs CAP_NET_ADMIN)";
+  if (!state.set_up(false))
+    RUTD_SKIP_NEEDS_HARDWARE("cannot set " << test_interface() << " down (needs CAP_NET_ADMIN)");
   EXPECT_FALSE(sink.send(frame(0x18FF50A0, true, {1})));
   EXPECT_EQ(sink.stats().write_errors, 1u);
   EXPECT_EQ(sink.stats().dropped, 0u);

@@ -155,7 +155,8 @@ class GuestKernel : public ::testing::Test {
   void SetUp() override {
     if (!fs::exists(qemu_dir() / "run-guest.sh")) FAIL() << "missing " << qemu_dir() / "run-guest.sh";
   }
-  // Boots; skips the test if the guest cannot be had here.
+  // Boots; skips the test if the guest cannot be had here. run-guest.sh applies the skip policy
+  // (tests/skip_policy.sh): under RUTD_TEST_NO_SKIP=1 a missing package is its failure, not 77.
   GuestRun boot(const std::string& job) {
     GuestRun run = run_guest(job);
     if (run.status == 77) skipped_ = "cannot boot the test guest here: " + run.error;
@@ -164,9 +165,9 @@ class GuestKernel : public ::testing::Test {
   std::string skipped_;
 };
 
-#define SKIP_IF_NO_GUEST()                           \
-  do {                                               \
-    if (!skipped_.empty()) GTEST_SKIP() << skipped_; \
+#define SKIP_IF_NO_GUEST()                                     \
+  do {                                                         \
+    if (!skipped_.empty()) RUTD_SKIP_NEEDS_HARDWARE(skipped_); \
   } while (false)
 
 // Checks guest-candump.sh's report: the sender succeeded, candump saw exactly the frames the sender
@@ -201,10 +202,8 @@ void check_candump_matches_sent(const std::string& console, std::size_t min_fram
     EXPECT_EQ(seen[i], sent[i]) << "frame " << i << ": bus " << (*seen_lines)[i] << ", sent " << (*sent_lines)[i];
   }
 
-  if (const std::string missing = decoder_unavailable(); !missing.empty()) {
-    std::printf("[ skipped  ] DBC decoding: %s\n", missing.c_str());
-    return;
-  }
+  if (const std::string missing = decoder_unavailable(); !missing.empty())
+    RUTD_SKIP_NEEDS_INSTALLED("DBC decoding: " << missing);
   const fs::path log = cache_dir() / "jobs" / ("candump-" + std::to_string(::getpid()) + ".log");
   {
     std::ofstream out(log);
@@ -261,7 +260,7 @@ bool rutd_has_socketcan_option() {
 // keep it to about 30 s under emulation (the defaults take minutes there); the CAN path is the same.
 TEST_F(GuestKernel, RutdSendsOnVcanWhatItLogs) {
   fs::create_directories(cache_dir());
-  if (!rutd_has_socketcan_option()) GTEST_SKIP() << "`rutd run` has no --socketcan option yet";
+  ASSERT_TRUE(rutd_has_socketcan_option()) << "`rutd run --help` lists no --socketcan option";
   const GuestRun run =
       boot("exec /bin/sh " + quoted(qemu_dir() / "guest-candump.sh") + " /mnt/rutd.log " + quoted(RUTD_BINARY) +
            " run --frames 5 --size 320x240 --engine bm --no-dic"

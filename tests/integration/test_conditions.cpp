@@ -78,7 +78,7 @@ Outcome run_case(const Case& c) {
 class Conditions : public ::testing::TestWithParam<Case> {};
 
 TEST_P(Conditions, NeverOkOffTheSoilAndFlagged) {
-  if (!test::have_canmatrix()) GTEST_SKIP() << "needs /usr/bin/python3 with canmatrix (python3-canmatrix)";
+  if (!test::have_canmatrix()) RUTD_SKIP_NEEDS_INSTALLED("needs /usr/bin/python3 with canmatrix (python3-canmatrix)");
   const Case& c = GetParam();
   const Outcome o = run_case(c);
   ASSERT_EQ(o.frames, c.frames);

@@ -78,10 +78,8 @@ void expect_depth_within_one_millimetre(const Case& c, const std::string& engine
                 truth[i].depth_mm, rows[i].measurement.depth_mm, err, rows[i].measurement.width_mm, truth[i].width_mm);
     EXPECT_LE(std::abs(err), 1.0) << c.name << " frame " << i;
   }
-  if (!test::have_canmatrix()) {
-    std::printf("condition flags not checked: needs /usr/bin/python3 with canmatrix (python3-canmatrix)\n");
-    return;
-  }
+  if (!test::have_canmatrix())
+    RUTD_SKIP_NEEDS_INSTALLED("condition flags not checked: needs /usr/bin/python3 with canmatrix (python3-canmatrix)");
   bool decoded = false;
   const auto conditions = test::frames_of(test::decode_candump(log, decoded), "RutConditions");
   EXPECT_TRUE(decoded) << "decoder reported CRC, counter or format errors";
@@ -157,7 +155,7 @@ INSTANTIATE_TEST_SUITE_P(Matrix, EndToEnd, ::testing::ValuesIn(kCases),
 // and 2 (an estimate twice too large or too small fails), at least 75 % of them within 2 u (95 % for a
 // normal variable), and none beyond 5 u. A floor of 0.02 mm stands for the CAN signal's 0.01 mm step.
 TEST(EndToEndUncertainty, DepthErrorsSpreadAsTheirEstimatedUncertainty) {
-  if (!test::have_canmatrix()) GTEST_SKIP() << "needs /usr/bin/python3 with canmatrix (python3-canmatrix)";
+  if (!test::have_canmatrix()) RUTD_SKIP_NEEDS_INSTALLED("needs /usr/bin/python3 with canmatrix (python3-canmatrix)");
   std::vector<double> z;
   for (const Case& c : kCases) {
     const test::TempDir tmp;

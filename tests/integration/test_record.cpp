@@ -256,10 +256,8 @@ void expect_recording_failed_measuring_went_on(const fs::path& work, const fs::p
   const std::vector<std::uint64_t> seqs = check_every_listed_pair_replays(recording);
   std::printf("%zu pairs listed before the failure, all replay\n", seqs.size());
 
-  if (!have_canmatrix()) {
-    std::printf("canmatrix missing (Debian package python3-canmatrix): status frames not decoded\n");
-    return;
-  }
+  if (!have_canmatrix())
+    RUTD_SKIP_NEEDS_INSTALLED("status frames not decoded: needs canmatrix (Debian package python3-canmatrix)");
   const std::vector<int> flags = decoded_recording_error(log, work);
   ASSERT_FALSE(flags.empty()) << "no status frames";
   const auto first_raised = std::find(flags.begin(), flags.end(), 1);
@@ -277,8 +275,8 @@ TEST(Record, FullDiskStopsRecordingWithOneErrorAndMeasuringGoesOn) {
   // Paths under TempDir hold no quotes or spaces, so they go into the inner command line unquoted.
   if (test::run_shell("unshare -m sh -c " + test::quoted("mount -t tmpfs -o size=64k tmpfs " + mnt.string()) +
                       " >/dev/null 2>&1") != 0) {
-    GTEST_SKIP() << "needs permission to mount a tmpfs in a private mount namespace (unshare -m: root or "
-                    "CAP_SYS_ADMIN)";
+    RUTD_SKIP_NEEDS_INSTALLED(
+        "needs permission to mount a tmpfs in a private mount namespace (unshare -m: root or CAP_SYS_ADMIN)");
   }
   const fs::path csv = tmp.path() / "m.csv", log = tmp.path() / "can.log", err = tmp.path() / "run.err",
                  copy = tmp.path() / "rec-copy";

@@ -43,7 +43,7 @@ Decoded read_decoded(const std::string& path) {
 
 TEST(ReplayCandump, DecodedFramesEqualTheCsvAndTheTruth) {
   if (std::system("/usr/bin/python3 -c 'import canmatrix' >/dev/null 2>&1") != 0)
-    GTEST_SKIP() << "needs /usr/bin/python3 with canmatrix (Debian package python3-canmatrix)";
+    RUTD_SKIP_NEEDS_INSTALLED("needs /usr/bin/python3 with canmatrix (Debian package python3-canmatrix)");
   const test::TempDir tmp;
   const std::string rec = (tmp.path() / "rec").string(), csv = (tmp.path() / "m.csv").string(),
                     log = (tmp.path() / "can.log").string(), decoded = (tmp.path() / "decoded.csv").string();
@@ -94,7 +94,7 @@ constexpr std::int64_t kPeriodNs = 100'000'000;  // the status period of `rutd r
 // after the last pair; healthy, the last measurement's status, the recording's frame rate once a second
 // of it has passed; every frame on the recording's clock.
 TEST(ReplayCandump, StatusFramesEveryPeriodOfTheRecordingClock) {
-  if (!test::have_canmatrix()) GTEST_SKIP() << "needs /usr/bin/python3 with canmatrix (python3-canmatrix)";
+  if (!test::have_canmatrix()) RUTD_SKIP_NEEDS_INSTALLED("needs /usr/bin/python3 with canmatrix (python3-canmatrix)");
   const test::TempDir tmp;
   const std::string rec = (tmp.path() / "rec").string(), log = (tmp.path() / "can.log").string();
   ASSERT_EQ(test::run_rutd("synth " + rec + " --frames 40 --size 320x240 --seed 8"), 0);
@@ -129,7 +129,7 @@ TEST(ReplayCandump, StatusFramesEveryPeriodOfTheRecordingClock) {
 // NoCamera once no pair came for 1 s, and say NO_MEASUREMENT as the latest status, as `rutd run` does;
 // both clear with the first pair after the gap.
 TEST(ReplayCandump, GapInTheRecordingIsReportedAsTheVehicleWouldHaveSeenIt) {
-  if (!test::have_canmatrix()) GTEST_SKIP() << "needs /usr/bin/python3 with canmatrix (python3-canmatrix)";
+  if (!test::have_canmatrix()) RUTD_SKIP_NEEDS_INSTALLED("needs /usr/bin/python3 with canmatrix (python3-canmatrix)");
   const test::TempDir tmp;
   const std::string rec = (tmp.path() / "rec").string(), log = (tmp.path() / "can.log").string();
   ASSERT_EQ(test::run_rutd("synth " + rec + " --frames 24 --size 320x240 --seed 9"), 0);

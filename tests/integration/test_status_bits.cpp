@@ -55,7 +55,7 @@ void write_recording(const std::string& dir, int count, const cv::Mat& left, con
 }
 
 TEST(StatusBits, NoCameraRaisedWhileThePairsStopAndClearedWhenTheyResume) {
-  if (!test::have_canmatrix()) GTEST_SKIP() << "needs /usr/bin/python3 with canmatrix (python3-canmatrix)";
+  if (!test::have_canmatrix()) RUTD_SKIP_NEEDS_INSTALLED("needs /usr/bin/python3 with canmatrix (python3-canmatrix)");
   const test::TempDir tmp;
   const std::string rec = (tmp.path() / "rec").string();
   // Pairs 2.5 s apart, replayed at their own pace: the source is silent for longer than the 1 s after
@@ -77,7 +77,7 @@ TEST(StatusBits, NoCameraRaisedWhileThePairsStopAndClearedWhenTheyResume) {
 }
 
 TEST(StatusBits, StaleFramesRaisedWhenMeasuringIsSlowerThanTheAgeLimit) {
-  if (!test::have_canmatrix()) GTEST_SKIP() << "needs /usr/bin/python3 with canmatrix (python3-canmatrix)";
+  if (!test::have_canmatrix()) RUTD_SKIP_NEEDS_INSTALLED("needs /usr/bin/python3 with canmatrix (python3-canmatrix)");
   const test::TempDir tmp;
   // Frames older than 1 ms when they reach a stage are refused: matching alone takes longer.
   const auto frames = run_paced_replay("--frames 20 --fps 30 --seed 4", "pipeline:\n  max_frame_age_ms: 1\n", tmp);
@@ -106,7 +106,7 @@ TEST(StatusBits, StaleFramesRaisedWhenMeasuringIsSlowerThanTheAgeLimit) {
 // at its full queues. FrameDrops goes up, and every pair is accounted for: the measurements published
 // plus the last status frame's DroppedFrames (drops and stale refusals) make the recording's 40 pairs.
 TEST(StatusBits, FrameDropsRaisedWhenPairsComeFasterThanTheyAreMeasured) {
-  if (!test::have_canmatrix()) GTEST_SKIP() << "needs /usr/bin/python3 with canmatrix (python3-canmatrix)";
+  if (!test::have_canmatrix()) RUTD_SKIP_NEEDS_INSTALLED("needs /usr/bin/python3 with canmatrix (python3-canmatrix)");
   const test::TempDir tmp;
   const auto frames =
       run_paced_replay("--frames 40 --fps 1000 --seed 5", "measurement:\n  engine: hh\n  strip:\n    rows: 400\n", tmp);
@@ -128,7 +128,7 @@ TEST(StatusBits, FrameDropsRaisedWhenPairsComeFasterThanTheyAreMeasured) {
 }
 
 TEST(StatusBits, LowTextureRaisedOnAFeaturelessScene) {
-  if (!test::have_canmatrix()) GTEST_SKIP() << "needs /usr/bin/python3 with canmatrix (python3-canmatrix)";
+  if (!test::have_canmatrix()) RUTD_SKIP_NEEDS_INSTALLED("needs /usr/bin/python3 with canmatrix (python3-canmatrix)");
   const test::TempDir tmp;
   const std::string rec = (tmp.path() / "rec").string();
   const cv::Mat grey(SyntheticRendererConfig{}.rig.image_size, CV_8UC1, cv::Scalar(128));
@@ -153,7 +153,7 @@ TEST(StatusBits, LowTextureRaisedOnAFeaturelessScene) {
 }
 
 TEST(StatusBits, ARefusedDepthNamesItsConditionOnTheStatusFrame) {
-  if (!test::have_canmatrix()) GTEST_SKIP() << "needs /usr/bin/python3 with canmatrix (python3-canmatrix)";
+  if (!test::have_canmatrix()) RUTD_SKIP_NEEDS_INSTALLED("needs /usr/bin/python3 with canmatrix (python3-canmatrix)");
   const test::TempDir tmp;
   const std::string rec = (tmp.path() / "rec").string();
   // The left lens covered by something dark and flat; the right camera sees the rut.

@@ -17,17 +17,19 @@
 # ccache, or ccache when installed) with the program alone: about a minute with ccache's objects, several
 # minutes when rutd compiles afresh.
 # Exit status: 0 all checks passed, 1 a check failed or the guest did not run the job, 77 (skip) when
-# qemu, the kernel, busybox-static, systemd or dpkg-dev cannot be had here.
+# qemu, the kernel, busybox-static, systemd or dpkg-dev cannot be had here (1 under RUTD_TEST_NO_SKIP=1:
+# tests/skip_policy.sh) or the host is not amd64.
 set -euo pipefail
 
 build=$(cd "${1:?usage: boot-systemd.sh BUILD_DIR}" && pwd)
 here=$(cd "$(dirname "$0")" && pwd)
 qemu_dir=$here/../can/qemu
+. "$here/../skip_policy.sh"
 
 [ -x /lib/systemd/systemd ] && command -v systemctl >/dev/null ||
-  { echo "boot-systemd: SKIPPED: no systemd on this machine (Debian package systemd)" >&2; exit 77; }
+  skip_needs_installed "no systemd on this machine (Debian package systemd)"
 command -v dpkg-shlibdeps >/dev/null && command -v cpack >/dev/null ||
-  { echo "boot-systemd: SKIPPED: the package needs dpkg-shlibdeps (Debian package dpkg-dev) and cpack" >&2; exit 77; }
+  skip_needs_installed "the package needs dpkg-shlibdeps (Debian package dpkg-dev) and cpack"
 [ -x "$build/bin/rutd" ] || { echo "boot-systemd: $build/bin/rutd is not built" >&2; exit 1; }
 
 # The job must live outside /mnt and /run (tmpfs in the guest); the build tree is seen through 9p.
@@ -83,10 +85,8 @@ status=0
 RUTD_GUEST_INIT=systemd "$qemu_dir/run-guest.sh" "$build/can-qemu" "$work/run-job.sh" 900 \
   >"$work/console.log" 2>"$work/run-guest.err" || status=$?
 wall=$(awk -v a="$start" -v b="$(date +%s.%N)" 'BEGIN { printf "%.1f", b - a }')
-if [ "$status" = 77 ]; then
-  echo "boot-systemd: SKIPPED: $(tail -1 "$work/run-guest.err")" >&2
-  exit 77
-fi
+# 77: run-guest.sh skipped (tests/skip_policy.sh), for a reason that allows it here.
+[ "$status" = 77 ] && skip_needs_hardware "$(tail -1 "$work/run-guest.err")"
 tr -d '\r' <"$work/console.log" >"$work/console.txt"
 cat "$work/console.txt"
 cat "$work/run-guest.err" >&2

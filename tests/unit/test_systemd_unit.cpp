@@ -13,7 +13,7 @@ namespace {
 
 TEST(SystemdUnit, VerifiesWithSystemdAnalyze) {
   if (std::system("command -v systemd-analyze >/dev/null 2>&1") != 0)
-    GTEST_SKIP() << "needs systemd-analyze (Debian package systemd)";
+    RUTD_SKIP_NEEDS_INSTALLED("needs systemd-analyze (Debian package systemd)");
   std::string unit = test::read_text(std::string(RUTD_SOURCE_DIR) + "/systemd/rutd.service.in");
   ASSERT_FALSE(unit.empty());
   unit = std::regex_replace(unit, std::regex("@RUTD_BINDIR@/rutd"), RUTD_BINARY);

@@ -15,6 +15,7 @@
 
 #include <gtest/gtest.h>
 
+#include "skip_policy.hpp"
 #include "usb_hotplug.hpp"
 
 namespace rutd {
@@ -273,8 +274,8 @@ TEST(UsbHotplugMonitor, StartsAndStopsOrSaysWhyNot) {
   if (!monitor->available()) {
     EXPECT_FALSE(monitor->unavailable_reason().empty());
     EXPECT_EQ(monitor->present(), 0U);
-    GTEST_SKIP() << "USB hot-plug needs a usbfs (/dev/bus/usb) and libusb hot-plug support; here: "
-                 << monitor->unavailable_reason();
+    RUTD_SKIP_NEEDS_HARDWARE("USB hot-plug needs a usbfs (/dev/bus/usb) and libusb hot-plug support; here: "
+                             << monitor->unavailable_reason());
   }
   EXPECT_TRUE(monitor->unavailable_reason().empty());
   std::printf("USB3 Vision devices attached: %u\n", monitor->present());
@@ -294,7 +295,7 @@ TEST(UsbHotplugMonitor, WaitForArrivalTimesOutWhenNothingArrives) {
   const bool arrived = monitor.wait_for_arrival(seen, milliseconds(200));
   const double waited = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   std::printf("waited %.1f ms for a 200 ms timeout\n", waited);
-  if (arrived) GTEST_SKIP() << "a USB3 Vision device was plugged in during the test";
+  if (arrived) RUTD_SKIP_NEEDS_HARDWARE("a USB3 Vision device was plugged in during the test");
   EXPECT_EQ(monitor.arrivals(), seen);
   EXPECT_GE(waited, 199.0);  // it waits out the timeout (the fallback backoff relies on it)
 }
@@ -320,11 +321,12 @@ TEST(UsbHotplugMonitor, WaitForArrivalEndsOnStopRequest) {
 TEST(UsbHotplugMonitor, CountsARealCameraPluggedIn) {
   const char* seconds = std::getenv("RUTD_TEST_REPLUG_SECONDS");
   if (seconds == nullptr) {
-    GTEST_SKIP() << "needs a USB3 Vision camera plugged in by hand: set RUTD_TEST_REPLUG_SECONDS=N and plug "
-                    "the camera in within N seconds of the start";
+    RUTD_SKIP_NEEDS_HARDWARE(
+        "needs a USB3 Vision camera plugged in by hand: set RUTD_TEST_REPLUG_SECONDS=N and plug the camera in "
+        "within N seconds of the start");
   }
   UsbHotplugMonitor monitor;
-  if (!monitor.available()) GTEST_SKIP() << "no USB hot-plug here: " << monitor.unavailable_reason();
+  if (!monitor.available()) RUTD_SKIP_NEEDS_HARDWARE("no USB hot-plug here: " << monitor.unavailable_reason());
   const std::uint64_t seen = monitor.arrivals();
   std::printf("plug a USB3 Vision camera in now (%s s)\n", seconds);
   ASSERT_TRUE(monitor.wait_for_arrival(seen, milliseconds(1000L * std::atol(seconds))));

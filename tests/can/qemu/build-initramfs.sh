@@ -2,7 +2,8 @@
 # Builds CACHE_DIR/initramfs.cpio (newc, uncompressed: it is small and qemu loads it faster than the
 # kernel would decompress it under emulation) from busybox-static, the guest init next to this script
 # and the modules fetch-kernel.sh left in CACHE_DIR/kernel/modules. Rebuilt only when an input is newer.
-# The host has no cpio; busybox's applet writes the archive. Exit status 77 without busybox-static.
+# The host has no cpio; busybox's applet writes the archive. Exit status 77 without busybox-static (1
+# under RUTD_TEST_NO_SKIP=1: tests/skip_policy.sh).
 # Usage: build-initramfs.sh CACHE_DIR
 set -euo pipefail
 
@@ -10,10 +11,11 @@ cache=${1:?usage: build-initramfs.sh CACHE_DIR}
 here=$(cd "$(dirname "$0")" && pwd)
 out=$cache/initramfs.cpio
 busybox=${BUSYBOX:-/bin/busybox}
+. "$here/../../skip_policy.sh"
 
 # ldd fails on a static executable, which is what the initramfs needs (it has no libc).
 [ -x "$busybox" ] && ! ldd "$busybox" >/dev/null 2>&1 ||
-  { echo "build-initramfs: no static $busybox (Debian package busybox-static)" >&2; exit 77; }
+  skip_needs_installed "no static $busybox (Debian package busybox-static)"
 if [ -s "$out" ] && [ "$out" -nt "$here/init" ] && [ "$out" -nt "$cache/kernel/release" ] &&
    [ "$out" -nt "$busybox" ]; then
   exit 0

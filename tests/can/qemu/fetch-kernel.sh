@@ -5,7 +5,8 @@
 #   CACHE_DIR/kernel/modules/*.ko the few modules the guest loads (virtio-mmio, 9p, CAN, vcan, overlay)
 #   CACHE_DIR/kernel/release      the kernel release, e.g. 6.1.0-56-amd64
 # Idempotent: does nothing when those exist with every module below. Exit status 77 when the kernel cannot be had here (no apt,
-# no network), with the reason on stderr, so callers can skip instead of failing.
+# no network), with the reason on stderr, so callers can skip instead of failing (1 under
+# RUTD_TEST_NO_SKIP=1: tests/skip_policy.sh).
 # Usage: fetch-kernel.sh CACHE_DIR
 set -euo pipefail
 
@@ -23,16 +24,17 @@ modules=(
 [ -s "$out/vmlinux" ] && [ -s "$out/release" ] &&
   [ "$(cat "$out/modules/load-order" 2>/dev/null)" = "$(printf '%s\n' "${modules[@]##*/}")" ] && exit 0
 
+. "$(dirname "$0")/../../skip_policy.sh"
 command -v apt-cache >/dev/null && command -v apt-get >/dev/null && command -v dpkg-deb >/dev/null ||
-  { echo "fetch-kernel: apt-get/dpkg-deb not available" >&2; exit 77; }
+  skip_needs_installed "apt-get/dpkg-deb not available"
 package=$(apt-cache depends linux-image-amd64 2>/dev/null | awk '/Depends: linux-image-[0-9]/ {print $2; exit}')
-[ -n "$package" ] || { echo "fetch-kernel: apt knows no linux-image-amd64 (not Debian amd64?)" >&2; exit 77; }
+[ -n "$package" ] || skip_needs_installed "apt knows no linux-image-amd64 (not Debian amd64? apt-get update first?)"
 release=${package#linux-image-}
 
 work=$(mktemp -d "$cache/fetch.XXXXXX")
 trap 'rm -rf "$work"' EXIT
 (cd "$work" && apt-get download -q "$package" >download.log 2>&1) ||
-  { echo "fetch-kernel: apt-get download $package failed:" >&2; tail -3 "$work/download.log" >&2; exit 77; }
+  skip_needs_installed "apt-get download $package failed: $(tail -3 "$work/download.log")"
 
 members=("./boot/vmlinuz-$release")
 for m in "${modules[@]}"; do members+=("./lib/modules/$release/kernel/$m.ko"); done

@@ -15,17 +15,19 @@
 #              tsc=reliable (else the clocksource watchdog of a slow emulated guest may demote the TSC
 #              to jiffies: 4 ms timestamps in candump); default from /proc/cpuinfo.
 # Exit status: 0 when the guest ran the job and powered off (whatever the job's status: read it from
-# the console), 77 when qemu, the kernel or busybox-static cannot be had here, 124 on timeout, else 1.
+# the console), 77 when the host is not amd64, or qemu, the kernel or busybox-static cannot be had here
+# (tests/skip_policy.sh: 1 for the last three under RUTD_TEST_NO_SKIP=1), 124 on timeout, else 1.
 set -euo pipefail
 
 cache=${1:?usage: run-guest.sh CACHE_DIR JOB [TIMEOUT_S]}
 job=${2:?usage: run-guest.sh CACHE_DIR JOB [TIMEOUT_S]}
 timeout_s=${3:-90}
 here=$(cd "$(dirname "$0")" && pwd)
+. "$here/../../skip_policy.sh"
 
 qemu=$(command -v qemu-system-x86_64 || true)
-[ -n "$qemu" ] || { echo "run-guest: no qemu-system-x86_64 (Debian package qemu-system-x86)" >&2; exit 77; }
-[ "$(uname -m)" = x86_64 ] || { echo "run-guest: the guest kernel is amd64; host is $(uname -m)" >&2; exit 77; }
+[ -n "$qemu" ] || skip_needs_installed "no qemu-system-x86_64 (Debian package qemu-system-x86)"
+[ "$(uname -m)" = x86_64 ] || skip_needs_hardware "the guest kernel is amd64; host is $(uname -m)"
 case $job in
   /mnt/* | /run/*) echo "run-guest: JOB must not be under /mnt or /run (fresh tmpfs in the guest)" >&2; exit 1 ;;
   /*) ;;
