@@ -17,6 +17,7 @@
 #include "core/rut_measurement.hpp"
 #include "core/sensor_health.hpp"
 #include "core/stereo_frame.hpp"
+#include "core/track.hpp"
 
 namespace rutd {
 
@@ -35,6 +36,8 @@ struct PublishedFrame {
   ClockKind clock = ClockKind::Monotonic;
   RutMeasurement measurement;  // whatever its status
   SensorHealth health;         // the publisher's view at this moment (RealtimePipeline::health())
+  VehicleMotion motion;        // speed and distance at capture time (NoSource without a speed source)
+  GeoFix position;             // the latest fix at capture time (Mode::None without a positioning source)
 
   const cv::Mat* left_raw = nullptr;  // the raw camera images as acquired, CV_8UC1 or CV_16UC1
   const cv::Mat* right_raw = nullptr;
@@ -61,6 +64,9 @@ class MeasurementSink {
   // that know more (CAN transmit drops, bus off, recording errors) set those flags in their own copy
   // before encoding.
   virtual void publish_status(const SensorHealth& health, std::int64_t t_ns) = 0;
+  // A segment of the track closed (core/track.hpp), after the publish() of the frame that closed it.
+  // Sinks that do not report segments ignore it.
+  virtual void publish_segment(const Segment& segment) { (void)segment; }
 };
 
 // Fans one publish out to several sinks, in order. Holds non-owning pointers; the sinks must outlive it.
@@ -72,6 +78,9 @@ class SinkFanout : public MeasurementSink {
   }
   void publish_status(const SensorHealth& health, std::int64_t t_ns) override {
     for (MeasurementSink* s : sinks_) s->publish_status(health, t_ns);
+  }
+  void publish_segment(const Segment& segment) override {
+    for (MeasurementSink* s : sinks_) s->publish_segment(segment);
   }
 
  private:
