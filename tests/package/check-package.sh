@@ -10,12 +10,12 @@
 #   - the version is the build's (project version and RUTD_PACKAGE_REVISION), and the packaged program
 #     prints it with `rutd --version`.
 # Prints one line per check. Usage: check-package.sh BUILD_DIR. Exit 0 all passed, 1 a check failed,
-# 77 (skip) without dpkg-dev or lintian.
+# 77 (skip) without dpkg-dev or lintian (1 under RUTD_TEST_NO_SKIP=1: tests/skip_policy.sh).
 set -euo pipefail
 build=$(cd "${1:?usage: check-package.sh BUILD_DIR}" && pwd)
+. "$(dirname "$0")/../skip_policy.sh"
 for tool in dpkg-shlibdeps lintian cpack readelf; do
-  command -v "$tool" >/dev/null ||
-    { echo "check-package: SKIPPED: needs $tool (Debian packages dpkg-dev, lintian, binutils)" >&2; exit 77; }
+  command -v "$tool" >/dev/null || skip_needs_installed "needs $tool (Debian packages dpkg-dev, lintian, binutils)"
 done
 
 out=$build/package-check

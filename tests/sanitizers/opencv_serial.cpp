@@ -1,4 +1,4 @@
-// Preloaded (LD_PRELOAD) into the ThreadSanitizer test run by scripts/test: makes OpenCV run
+// Preloaded (LD_PRELOAD) into the ThreadSanitizer test run by scripts/test-sanitizers: makes OpenCV run
 // cv::parallel_for_ on the calling thread. Debian's OpenCV hands parallel loops to oneTBB, which is not
 // built with ThreadSanitizer, so the hand-off and join are invisible to it: every loop body's access from
 // a TBB worker is reported as a race, and suppressing them costs a symbolized report per pixel, which
