@@ -32,6 +32,15 @@ enum class SpeedState : std::uint8_t {
 };
 std::string_view to_string(SpeedState state) noexcept;
 
+// One reading of the vehicle's speed signal as its source decoded it (drivers/can: J1939 CCVS or a DBC
+// signal), in the order received. t_ns: receive time on the frames' clock. speed_mm_s is signed
+// (negative while reversing, when the source knows the direction) and 0 unless state is Ok.
+struct SpeedSample {
+  std::int64_t t_ns = 0;
+  SpeedState state = SpeedState::NoSource;
+  double speed_mm_s = 0.0;
+};
+
 // The vehicle's motion at one frame's capture time.
 struct VehicleMotion {
   SpeedState state = SpeedState::NoSource;
