@@ -20,6 +20,7 @@
 #include <spdlog/spdlog.h>
 
 #include "can/can_sink.hpp"
+#include "can/vehicle_speed_receiver.hpp"
 #include "core/input_error.hpp"
 #include "daemon/build_info.hpp"
 #include "daemon/commands.hpp"
@@ -32,9 +33,11 @@
 #include "daemon/stalling_stages.hpp"
 #include "daemon/stop_signal.hpp"
 #include "daemon/supervisor.hpp"
+#include "daemon/trafficability_sink.hpp"
 #include "recording/calibration_file.hpp"
 #include "recording/frame_recorder.hpp"
 #include "recording/measurement_csv_sink.hpp"
+#include "recording/segment_csv_sink.hpp"
 #include "runtime/realtime_pipeline.hpp"
 
 namespace rutd {
@@ -45,6 +48,7 @@ struct RunOptions {
   std::string config;
   std::uint64_t frames = 0;  // stop after this many published measurements; 0: until a signal
   std::optional<std::string> socketcan, candump, csv, record, size, engine, replay_dir;
+  std::optional<std::string> speed_socketcan, segments;  // trafficability.speed.socketcan, .segments_csv
   bool no_dic = false;
   bool check = false;                                   // --check: see check_run
   std::optional<std::uint64_t> test_stall_match_after;  // tests only: see daemon/stalling_stages.hpp
@@ -57,6 +61,8 @@ RutdConfig effective_config(const RunOptions& o) {
   if (o.csv) c.sinks.csv = *o.csv;
   if (o.record) c.record = *o.record;
   if (o.no_dic) c.measurement.dic = false;
+  if (o.speed_socketcan) c.trafficability.socketcan = *o.speed_socketcan;
+  if (o.segments) c.trafficability.segments_csv = *o.segments;
   if (o.engine) c.measurement.engine = *parse_engine(*o.engine);  // checked by IsMember
   if (o.replay_dir) {
     c.source = SourceKind::Replay;
@@ -165,11 +171,34 @@ int run_daemon(const RunOptions& o, const RunInjection& injection) {
     }
     sinks.push_back(plots.get());
   }
+  // Trafficability: the vehicle speed from the bus, recorded beside the pairs as vehicle.log.
+  std::unique_ptr<SegmentCsvSink> segments_csv;
+  if (!c.trafficability.segments_csv.empty()) {
+    segments_csv = std::make_unique<SegmentCsvSink>(c.trafficability.segments_csv, "trafficability.segments_csv");
+    sinks.push_back(segments_csv.get());
+  }
+  std::ofstream vehicle_log;
+  std::unique_ptr<VehicleSpeedReceiver> speed;
+  if (!c.trafficability.socketcan.empty()) {
+    if (recorder) {
+      const std::string path = recorder->directory() + "/vehicle.log";
+      vehicle_log.open(path, std::ios::out | std::ios::trunc);
+      if (!vehicle_log) throw InputError(path, "source.record", "cannot open the vehicle log for writing");
+    }
+    std::ostream* log_out = vehicle_log.is_open() ? &vehicle_log : nullptr;
+    speed = injection.open_speed
+                ? injection.open_speed(c.trafficability.socketcan, c.trafficability.speed, log_out)
+                : std::make_unique<VehicleSpeedReceiver>(c.trafficability.socketcan, c.trafficability.speed, log_out,
+                                                         c.sinks.can_interface_name);
+  }
+  SpeedSamplePull pull;
+  if (speed) pull = [r = speed.get()](std::int64_t up_to, SpeedSample& out) { return r->next(up_to, out); };
   SinkFanout fanout(sinks);
+  TrafficabilitySink traffic(fanout, std::move(pull), c.trafficability.odometer, c.trafficability.segments);
 
   install_stop_handlers();
   ServiceNotifier systemd;
-  RealtimePipeline pipeline(*source, stages, fanout, pipeline_config(c));
+  RealtimePipeline pipeline(*source, stages, traffic, pipeline_config(c));
   spdlog::info("rutd {}, {}: source {}, engine {}{}, CAN to {}{}{}", version_line(), c.file, describe_source(c),
                to_string(c.measurement.engine), c.measurement.dic ? " + DIC" : "",
                bus ? c.sinks.socketcan : std::string("no bus"),
@@ -197,6 +226,23 @@ int run_daemon(const RunOptions& o, const RunInjection& injection) {
   pipeline.stop();
   const PipelineStats s = pipeline.stats();
   spdlog::info("stopped: {}", describe(s));
+  if (speed) {
+    speed->stop();
+    traffic.finish();  // the last, open segment
+    const VehicleSpeedReceiverStats r = speed->stats();
+    const VehicleSpeedStats& d = r.decoded;
+    spdlog::info(
+        "vehicle speed on {} ({}): {} frames, {} samples ({} ok, {} not available, {} error, {} out of range, "
+        "{} implausible, {} direction unknown); ignored: {} wrong length, {} spoofed, {} burst, {} other; "
+        "{} dropped by the kernel, {} by the queue",
+        speed->interface(), c.trafficability.speed.signal.name, d.frames, d.samples, d.ok, d.not_available,
+        d.error_value, d.out_of_range, d.implausible, d.direction_unknown, d.wrong_length, d.spoofed, d.burst,
+        d.other_id, r.kernel_dropped, r.queue_full);
+    spdlog::info("trafficability: {}", traffic.describe());
+  }
+  if (segments_csv)
+    spdlog::info("segment CSV {}: {} rows written, {} lost", segments_csv->path(), segments_csv->rows_written(),
+                 segments_csv->rows_lost());
   if (recorder) {
     recorder->close();  // writes what is still queued
     const FrameRecorderStats r = recorder->stats();
@@ -237,6 +283,9 @@ void add_run_command(CLI::App& app, int& exit_code, RunInjection injection) {
   cmd->add_option("--candump", o->candump,
                   "candump -L log of the frames sent, '-' for stdout, '' for none (sinks.candump)");
   cmd->add_option("--csv", o->csv, "Measurement CSV file (sinks.csv)");
+  cmd->add_option("--speed-socketcan", o->speed_socketcan,
+                  "Receive the vehicle speed on this CAN interface (trafficability.speed.socketcan)");
+  cmd->add_option("--segments", o->segments, "Segment CSV file (trafficability.segments_csv)");
   cmd->add_option("--record", o->record, "Also record the raw pairs into this new folder (source.record)");
   cmd->add_option("--replay", o->replay_dir,
                   "Measure a recording folder at its own pace instead of the configured source");

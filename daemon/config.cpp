@@ -9,6 +9,7 @@
 
 #include <yaml-cpp/yaml.h>
 
+#include "can/dbc_signal.hpp"
 #include "core/input_error.hpp"
 #include "daemon/dimensions.hpp"
 #include "default_config.hpp"  // generated from config/rutd.yaml
@@ -69,6 +70,36 @@ class Section {
         out.push_back(item.as<int>());
       } catch (const YAML::Exception&) {
         fail_at(item, name(key), "expected an integer, got '" + text(item) + "'");
+      }
+    }
+    return *this;
+  }
+
+  // A list of mappings, each read as a Section named KEY[i].
+  std::vector<Section> children(const char* key) {
+    known_.insert(key);
+    std::vector<Section> out;
+    const YAML::Node value = present(key);
+    if (!value) return out;
+    if (!value.IsSequence()) fail_at(value, name(key), "expected a list");
+    for (std::size_t i = 0; i < value.size(); ++i)
+      out.emplace_back(value[i], name(key) + "[" + std::to_string(i) + "]", file_);
+    return out;
+  }
+
+  // A list of [number, number] pairs.
+  Section& get_pairs(const char* key, std::vector<std::pair<double, double>>& out) {
+    known_.insert(key);
+    const YAML::Node value = present(key);
+    if (!value) return *this;
+    if (!value.IsSequence()) fail_at(value, name(key), "expected a list of [number, number] pairs");
+    out.clear();
+    for (const auto& item : value) {
+      try {
+        if (!item.IsSequence() || item.size() != 2) throw YAML::Exception(item.Mark(), "");
+        out.emplace_back(item[0].as<double>(), item[1].as<double>());
+      } catch (const YAML::Exception&) {
+        fail_at(item, name(key), "expected a pair [number, number], got '" + text(item) + "'");
       }
     }
     return *this;
@@ -385,6 +416,105 @@ void read_plots(Section plots, SinkConfig& c) {
   c.plots.queue = static_cast<std::size_t>(plot_queue);
 }
 
+// The `trafficability` section (TrafficabilityConfig).
+void read_speed(Section s, TrafficabilityConfig& t) {
+  VehicleSpeedConfig& v = t.speed;
+  double max_age_ms = static_cast<double>(t.odometer.max_age_ns) / 1e6;
+  double max_speed_kmh = v.max_speed_mm_s * 3.6 / 1000, max_accel = v.max_accel_mm_s2 / 1000;
+  double min_interval_ms = static_cast<double>(v.min_interval_ns) / 1e6;
+  std::string message = "ccvs1";
+  s.get<std::string>("socketcan", t.socketcan)
+      .parse("message",
+             [&](const std::string& m) {
+               if (m != "ccvs1" && m != "dbc") return "expected ccvs1 or dbc, got '" + m + "'";
+               message = m;
+               return std::string();
+             })
+      .get<std::string>("dbc", t.dbc)
+      .get<std::string>("dbc_message", t.dbc_message)
+      .get<std::string>("dbc_signal", t.dbc_signal)
+      .parse("source_address",
+             [&](const std::string& a) {
+               if (a == "any") {
+                 v.source_address = -1;
+                 return std::string();
+               }
+               std::uint8_t b = 0;
+               const std::string problem = parse_byte(a, b, 0xFD);
+               v.source_address = b;
+               return problem.empty() ? problem : problem + " or any";
+             })
+      .get<bool>("direction_from_gear", v.direction_from_gear)
+      .get<double>("max_age_ms", max_age_ms, in_range(10.0, 10000.0))
+      .get<double>("max_speed_kmh", max_speed_kmh, in_range(1.0, 500.0))
+      .get<double>("max_accel_m_s2", max_accel, in_range(0.1, 200.0))
+      .get<double>("min_interval_ms", min_interval_ms, in_range(0.0, 1000.0));
+  t.odometer.max_age_ns = static_cast<std::int64_t>(max_age_ms * 1e6);
+  v.max_speed_mm_s = max_speed_kmh / 3.6 * 1000;
+  v.max_accel_mm_s2 = max_accel * 1000;
+  v.min_interval_ns = static_cast<std::int64_t>(min_interval_ms * 1e6);
+  if (message == "dbc") {
+    if (t.dbc.empty() || t.dbc_message.empty() || t.dbc_signal.empty())
+      s.fail("message", "message: dbc needs dbc, dbc_message and dbc_signal");
+    try {
+      v.signal = load_dbc_speed_signal(t.dbc, t.dbc_message, t.dbc_signal);
+    } catch (const std::invalid_argument& e) {
+      s.fail("dbc", e.what());
+    }
+  } else if (!t.dbc.empty()) {
+    s.fail("dbc", "set message: dbc to read the speed from a DBC signal");
+  }
+  if (const std::string problem = check_vehicle_speed_config(v, "trafficability.speed"); !problem.empty())
+    s.fail("message", problem);
+  s.finish();
+}
+
+void read_trafficability(Section s, TrafficabilityConfig& t) {
+  read_speed(s.child("speed"), t);
+  SegmentConfig& g = t.segments;
+  s.get<double>("segment_length_m", g.length_m, in_range(0.05, 1000.0))
+      .get<std::string>("segments_csv", t.segments_csv);
+  Section a = s.child("advisory");
+  int min_frames = static_cast<int>(g.advisory.min_trusted_frames);
+  a.get<double>("caution_depth_mm", g.advisory.caution_depth_mm, in_range(0.1, 2000.0))
+      .get<double>("no_go_depth_mm", g.advisory.no_go_depth_mm, in_range(0.1, 2000.0))
+      .get<double>("hysteresis_m", g.advisory.hysteresis_m, in_range(0.0, 1000.0))
+      .get<double>("max_untrusted_fraction", g.advisory.max_untrusted_fraction, in_range(0.0, 1.0))
+      .get<int>("min_trusted_frames", min_frames, in_range(1, 100000))
+      .get<double>("coverage_factor", g.advisory.coverage_factor, in_range(0.0, 10.0));
+  g.advisory.min_trusted_frames = static_cast<std::uint32_t>(min_frames);
+  if (g.advisory.no_go_depth_mm < g.advisory.caution_depth_mm)
+    a.fail("no_go_depth_mm", "must not be below caution_depth_mm");
+  a.finish();
+  Section soil = s.child("soil");
+  std::vector<std::pair<double, double>> table;
+  soil.get<std::string>("quantity", g.soil.quantity)
+      .get<std::string>("units", g.soil.units)
+      .get<std::string>("source", g.soil.source)
+      .get_pairs("table", table)
+      .get<double>("vehicle_limit_one_pass", g.soil.limit_one_pass, in_range(0.0, 1e6))
+      .get<double>("vehicle_limit_fifty_passes", g.soil.limit_fifty_passes, in_range(0.0, 1e6));
+  g.soil.table.clear();
+  for (const auto& [mm, strength] : table) g.soil.table.push_back({mm, strength});
+  if (const std::string problem = check_soil_strength_config(g.soil, "trafficability.soil"); !problem.empty())
+    soil.fail("table", problem);
+  soil.finish();
+  if (s.has("damage")) g.damage.clear();
+  for (Section r : s.children("damage")) {
+    RutDamageRule rule;
+    r.get<std::string>("name", rule.name)
+        .get<double>("depth_mm", rule.depth_mm, in_range(0.1, 2000.0))
+        .get<double>("min_length_m", rule.min_length_m, in_range(0.0, 1000.0))
+        .get<double>("max_share", rule.max_share, in_range(0.001, 1.0));
+    if (rule.name.empty()) r.fail("name", "name the rule (e.g. its guideline)");
+    r.finish();
+    g.damage.push_back(rule);
+  }
+  if (const std::string problem = check_segment_config(g, "trafficability"); !problem.empty())
+    s.fail("segment_length_m", problem);
+  s.finish();
+}
+
 }  // namespace
 
 RutdConfig parse_config(const std::string& yaml_text, const std::string& file) {
@@ -456,6 +586,7 @@ RutdConfig parse_config(const std::string& yaml_text, const std::string& file) {
   for (ThreadPlacement& t : c.pipeline.threads) t.fifo_priority = realtime_priority;
 
   top.moved("plots", "sinks.plots");
+  read_trafficability(top.child("trafficability"), c.trafficability);
 
   Section logging = top.child("logging");
   logging.parse("level", [&](const std::string& t) {

@@ -9,10 +9,13 @@
 
 #include "camera/aravis_config.hpp"
 #include "can/can_encoder.hpp"
+#include "can/vehicle_speed.hpp"
 #include "measurement/measurer.hpp"
 #include "plots/plot_sink.hpp"
 #include "runtime/realtime_pipeline.hpp"
 #include "synthetic/synthetic_renderer.hpp"
+#include "trafficability/odometer.hpp"
+#include "trafficability/segment_tracker.hpp"
 
 namespace rutd {
 
@@ -41,6 +44,19 @@ struct SinkConfig {
   }();
 };
 
+// The `trafficability` section: the vehicle's speed from the CAN bus, segments of the track, soil
+// strength and the advisory (trafficability/, can/vehicle_speed.hpp). Off while speed.socketcan is empty
+// (then every frame's motion says NoSource and no segment is made), except in `rutd replay` of a
+// recording that has a vehicle.log.
+struct TrafficabilityConfig {
+  std::string socketcan;  // trafficability.speed.socketcan: interface to receive the speed on; empty: off
+  VehicleSpeedConfig speed;
+  std::string dbc, dbc_message, dbc_signal;  // speed.message: dbc: the signal's file, message and name
+  OdometerConfig odometer;                   // speed.max_age_ms
+  SegmentConfig segments;                    // segment_length_m, advisory, soil, damage
+  std::string segments_csv;                  // segment CSV file; empty: off
+};
+
 struct LoggingConfig {
   std::string level = "info";  // trace, debug, info, warn, error
   double stats_period_s = 10;  // period of the rate and latency log lines
@@ -67,6 +83,7 @@ struct RutdConfig {
   // in Stage order; entries past the last stage are ignored) and realtime_priority (SCHED_FIFO of every
   // stage thread) land in max_frame_age, status_period and threads. The daemon sets the rest.
   PipelineConfig pipeline;
+  TrafficabilityConfig trafficability;
   LoggingConfig logging;
 };
 

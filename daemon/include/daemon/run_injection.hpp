@@ -8,6 +8,7 @@
 #include <string>
 
 #include "can/socketcan_bus.hpp"
+#include "can/vehicle_speed_receiver.hpp"
 #include "core/io_faults.hpp"
 
 namespace rutd {
@@ -17,6 +18,10 @@ struct RunInjection {
   IoFaults* faults = nullptr;
   // Opens the bus named by sinks.socketcan instead of SocketCanBus(interface, faults).
   std::function<std::unique_ptr<SocketCanBus>(const std::string& interface)> open_bus;
+  // Opens the speed receiver named by trafficability.speed.socketcan instead of VehicleSpeedReceiver(...).
+  std::function<std::unique_ptr<VehicleSpeedReceiver>(const std::string& interface, const VehicleSpeedConfig& config,
+                                                      std::ostream* log)>
+      open_speed;
 };
 
 }  // namespace rutd

@@ -1,0 +1,46 @@
+#pragma once
+// Where trafficability/ meets the publish path: a MeasurementSink in front of the daemon's other sinks.
+// For each published frame it takes the speed samples received up to the frame's capture time (from the
+// live receiver, or from a recording's vehicle.log in replay), fills PublishedFrame::motion, hands the
+// frame on, places the measurement on the track and hands on every segment that closed
+// (MeasurementSink::publish_segment). Called from the publish thread only; allocates nothing per frame.
+#include <cstdint>
+#include <functional>
+#include <string>
+
+#include "core/measurement_sink.hpp"
+#include "trafficability/odometer.hpp"
+#include "trafficability/segment_tracker.hpp"
+
+namespace rutd {
+
+// The next speed sample received at or before up_to_ns, in order of receipt; false when none.
+using SpeedSamplePull = std::function<bool(std::int64_t up_to_ns, SpeedSample& out)>;
+
+class TrafficabilitySink final : public MeasurementSink {
+ public:
+  // downstream: not owned, outlives this. pull: empty when no speed source is configured (every frame's
+  // motion is then NoSource and no segment is made).
+  TrafficabilitySink(MeasurementSink& downstream, SpeedSamplePull pull, const OdometerConfig& odometer,
+                     const SegmentConfig& segments);
+  void publish(const PublishedFrame& frame) override;
+  void publish_status(const SensorHealth& health, std::int64_t t_ns) override;
+  void publish_segment(const Segment& segment) override { downstream_.publish_segment(segment); }
+  // End of the run: closes the open segment and hands it on.
+  void finish();
+
+  const Odometer& odometer() const noexcept { return odometer_; }
+  const SegmentTracker& tracker() const noexcept { return tracker_; }
+  // The run's figures in words (for the log): distance, segments per advisory, motion, damage shares.
+  std::string describe() const;
+
+ private:
+  void take_samples(std::int64_t up_to_ns);
+  MeasurementSink& downstream_;
+  SpeedSamplePull pull_;
+  Odometer odometer_;
+  SegmentTracker tracker_;
+  PublishedFrame frame_;  // the frame handed on, with its motion
+};
+
+}  // namespace rutd
