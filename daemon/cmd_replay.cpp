@@ -18,14 +18,17 @@
 #include "core/input_error.hpp"
 #include "daemon/build_info.hpp"
 #include "daemon/commands.hpp"
+#include "daemon/config.hpp"
 #include "daemon/measure_options.hpp"
 #include "daemon/no_output_status_sink.hpp"
 #include "daemon/progress.hpp"
 #include "daemon/replay_status.hpp"
 #include "daemon/run_summary.hpp"
+#include "daemon/trafficability_sink.hpp"
 #include "plots/plot_sink.hpp"
 #include "recording/measurement_csv_sink.hpp"
 #include "recording/recording.hpp"
+#include "recording/segment_csv_sink.hpp"
 #include "runtime/realtime_pipeline.hpp"
 
 namespace rutd {
@@ -38,8 +41,36 @@ struct ReplayOptions {
   std::string can_interface = "can0";
   std::string plots;  // empty: none
   std::uint64_t plot_every = 0;
+  std::string config;    // its trafficability section; empty: the embedded default
+  std::string segments;  // segment CSV; empty: none
   MeasureOptions measure;
 };
+
+// DIR/vehicle.log (the CAN frames `rutd run` received, candump format, on the recording's clock) decoded
+// as the receiver decoded them live. A line that is not a CAN frame is reported (file and line) and
+// skipped; `bad` counts them. Empty when the recording has no vehicle.log.
+std::vector<SpeedSample> read_vehicle_log(const std::string& dir, const VehicleSpeedConfig& config,
+                                          VehicleSpeedStats& stats, std::uint64_t& bad) {
+  std::vector<SpeedSample> samples;
+  const std::string path = dir + "/vehicle.log";
+  std::ifstream in(path);
+  if (!in) return samples;
+  VehicleSpeedDecoder decoder(config);
+  std::string line;
+  std::uint64_t number = 0;
+  while (std::getline(in, line)) {
+    ++number;
+    if (line.empty()) continue;
+    const auto frame = parse_candump_line(line);
+    if (!frame) {
+      if (bad++ == 0) spdlog::error("{}: line {}: not a candump frame line, skipped: '{}'", path, number, line);
+      continue;
+    }
+    if (const auto s = decoder.on_frame(frame->first, frame->second)) samples.push_back(*s);
+  }
+  stats = decoder.stats();
+  return samples;
+}
 
 // Pairs listed in DIR/frames.csv (lines after the header), for the progress line; 0 when unknown.
 std::uint64_t count_pairs(const std::string& dir) {
@@ -109,7 +140,31 @@ int run_replay(const ReplayOptions& o) {
   if (candump) outputs.push_back(&candump->sink);
   outputs.push_back(&csv);
   if (plots) outputs.push_back(plots.get());
-  SinkFanout sinks(outputs);
+  // Trafficability from the recording's vehicle.log, with the configuration's trafficability section.
+  const RutdConfig rutd_config =
+      o.config.empty() ? parse_config(default_config_text(), "(embedded default)") : load_config(o.config);
+  const TrafficabilityConfig& tc = rutd_config.trafficability;
+  std::unique_ptr<SegmentCsvSink> segments_csv;
+  if (!o.segments.empty()) {
+    segments_csv = std::make_unique<SegmentCsvSink>(o.segments, "--segments");
+    outputs.push_back(segments_csv.get());
+  }
+  VehicleSpeedStats speed_stats;
+  std::uint64_t bad_log_lines = 0;
+  const std::vector<SpeedSample> samples = read_vehicle_log(o.dir, tc.speed, speed_stats, bad_log_lines);
+  const bool have_speed = speed_stats.frames > 0 || bad_log_lines > 0;
+  if (!have_speed && segments_csv) spdlog::warn("{}: no vehicle.log: no speed, so no segments", o.dir);
+  std::size_t next_sample = 0;
+  SpeedSamplePull pull;
+  if (have_speed) {
+    pull = [&](std::int64_t up_to, SpeedSample& out) {
+      if (next_sample >= samples.size() || samples[next_sample].t_ns > up_to) return false;
+      out = samples[next_sample++];
+      return true;
+    };
+  }
+  SinkFanout fanout(outputs);
+  TrafficabilitySink sinks(fanout, pull, tc.odometer, tc.segments);
   ReplayStatus status(live.status_period, live.no_frame_timeout);
 
   RunSummary summary;
@@ -165,7 +220,13 @@ int run_replay(const ReplayOptions& o) {
     if (output_failed()) return 1;
   }
   status.finish(sinks);
+  sinks.finish();
   progress.clear();
+  if (have_speed) {
+    spdlog::info("vehicle.log: {} frames, {} speed samples ({} ok), {} lines not frames", speed_stats.frames,
+                 speed_stats.samples, speed_stats.ok, bad_log_lines);
+    spdlog::info("trafficability: {}", sinks.describe());
+  }
   if (context.engine->device() != device)
     spdlog::warn("the engine left {} during the replay: now on {}", device, context.engine->device());
   if (output_failed()) return 1;
@@ -180,6 +241,11 @@ int run_replay(const ReplayOptions& o) {
   if (reader.truncated_tail())
     spdlog::warn("{}: the last line of frames.csv was cut off; replayed up to the last complete pair", o.dir);
   summary.log();
+  if (bad_log_lines > 0) {
+    spdlog::error("{}/vehicle.log: {} lines could not be read (the first is named above); the other frames were used",
+                  o.dir, bad_log_lines);
+    return 1;
+  }
   if (unreadable > 0) {
     spdlog::error("{}: {} pairs could not be read (see above); the other pairs were measured", o.dir, unreadable);
     return 1;
@@ -205,6 +271,10 @@ void add_replay_command(CLI::App& app, int& exit_code) {
   cmd->add_option("--plot-every", options->plot_every,
                   "Also plot every N-th pair (the first pair of each status change is always plotted)")
       ->check(CLI::Range(0, 1000000));
+  cmd->add_option("--segments", options->segments,
+                  "Segment CSV file: the track's segments from the recording's vehicle.log (trafficability)");
+  cmd->add_option("--config", options->config,
+                  "Configuration whose trafficability section applies (default: the embedded one)");
   add_measure_options(*cmd, options->measure);
   cmd->callback([options, &exit_code] { exit_code = run_replay(*options); });
 }

@@ -1,5 +1,6 @@
 #include "can/vehicle_speed.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 #include <utility>
@@ -45,6 +46,31 @@ std::optional<std::uint64_t> extract_signal_raw(const CanFrame& f, int start_bit
   return raw;
 }
 
+CanFrame encode_ccvs1(double speed_kmh, std::uint8_t source_address) noexcept {
+  CanFrame f;
+  f.extended = true;
+  f.id = (6U << 26) | (0xFEF1U << 8) | source_address;
+  f.len = 8;
+  f.data.fill(0xFF);
+  if (std::isfinite(speed_kmh)) {
+    const double raw = std::min(std::round(std::abs(speed_kmh) * 256.0), 64255.0);  // 0xFAFF
+    const auto r = static_cast<std::uint16_t>(raw);
+    f.data[1] = static_cast<std::uint8_t>(r & 0xFF);
+    f.data[2] = static_cast<std::uint8_t>(r >> 8);
+  }
+  return f;
+}
+
+CanFrame encode_etc2_gear(int gear, std::uint8_t source_address) noexcept {
+  CanFrame f;
+  f.extended = true;
+  f.id = (3U << 26) | (0xF005U << 8) | source_address;
+  f.len = 8;
+  f.data.fill(0xFF);
+  f.data[3] = static_cast<std::uint8_t>(std::clamp(gear + 125, 0, 250));
+  return f;
+}
+
 VehicleSpeedDecoder::VehicleSpeedDecoder(VehicleSpeedConfig config) : config_(std::move(config)) {
   if (const std::string e = check_vehicle_speed_config(config_, "trafficability.speed"); !e.empty())
     throw std::invalid_argument(e);
@@ -73,7 +99,7 @@ std::optional<SpeedSample> VehicleSpeedDecoder::on_frame(const CanFrame& f, std:
     ++stats_.other_id;
     return std::nullopt;
   }
-  if (f.extended && config_.source_address >= 0 && static_cast<int>(f.id & 0xFF) != config_.source_address) {
+  if (speed && f.extended && config_.source_address >= 0 && static_cast<int>(f.id & 0xFF) != config_.source_address) {
     ++stats_.spoofed;
     return std::nullopt;
   }

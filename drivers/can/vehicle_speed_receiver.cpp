@@ -113,7 +113,8 @@ void VehicleSpeedReceiver::read_pending() noexcept {
     msg.msg_control = adopted_ ? nullptr : control;
     msg.msg_controllen = adopted_ ? 0 : sizeof control;
     const ssize_t got = ::recvmsg(fd_, &msg, MSG_DONTWAIT);
-    const std::int64_t t_ns = monotonic_now_ns();
+    // Microseconds, as candump logs them: replay of vehicle.log then decodes at exactly the same times.
+    const std::int64_t t_ns = monotonic_now_ns() / 1000 * 1000;
     if (got < 0) {
       if (errno == EINTR) continue;
       if (errno != EAGAIN && errno != EWOULDBLOCK) {

@@ -219,8 +219,8 @@ void expect_same(double want, double got, const std::string& what) {
 }
 
 TEST(Trafficability, RandomDrivesMatchTheIndependentReference) {
-  if (test::run_shell("python3 -c 'import statistics' 2>/dev/null") != 0) {
-    RUTD_SKIP_NEEDS_INSTALLED("python3 (the reference computation)");
+  if (test::run_shell("/usr/bin/python3 -c 'import statistics' 2>/dev/null") != 0) {
+    RUTD_SKIP_NEEDS_INSTALLED("/usr/bin/python3 (the reference computation)");
   }
   SegmentConfig c;
   c.length_m = 1.0;
@@ -261,7 +261,7 @@ TEST(Trafficability, RandomDrivesMatchTheIndependentReference) {
         f << x.t_ns << ',' << static_cast<int>(x.m.status) << ',' << x.m.depth_mm << ',' << x.m.width_mm << ','
           << x.m.area_mm2 << ',' << x.m.depth_uncertainty_mm << '\n';
     }
-    ASSERT_EQ(test::run_shell("python3 " RUTD_SOURCE_DIR "/tests/unit/trafficability_reference.py " +
+    ASSERT_EQ(test::run_shell("/usr/bin/python3 " RUTD_SOURCE_DIR "/tests/unit/trafficability_reference.py " +
                               test::quoted(dir.path())),
               0);
     // The same through the library: samples received up to each frame's time, then the frame.

@@ -54,7 +54,7 @@ struct SpeedSignalLayout {
 
 struct VehicleSpeedConfig {
   SpeedSignalLayout signal;
-  int source_address = -1;  // J1939 sender to accept (0x00..0xFD); -1: any
+  int source_address = -1;  // J1939 sender of the speed to accept (0x00..0xFD); -1: any. ETC2: any sender
   bool direction_from_gear = false;
   double max_speed_mm_s = 150.0 / 3.6 * 1000;  // 150 km/h: above is out of range
   double max_accel_mm_s2 = 15000;              // about 1.5 g: a faster change is implausible
@@ -87,6 +87,13 @@ struct VehicleSpeedStats {
 // A signal's raw value from a frame's payload (DBC bit numbering), or nothing if the frame is too short.
 std::optional<std::uint64_t> extract_signal_raw(const CanFrame& frame, int start_bit, int length,
                                                 bool little_endian) noexcept;
+
+// The frames a vehicle sends, for `rutd synth` (a recording's vehicle.log from a speed profile) and
+// tests. CCVS1 with the speed's magnitude (rounded to 1/256 km/h, saturated at 250.99 km/h; NaN: not
+// available) and the other fields not available (all ones); ETC2 with the current gear (-1 reverse, 0
+// neutral, +1 forward, others as given) and the rest not available. Priority 6 and 3 as J1939 recommends.
+CanFrame encode_ccvs1(double speed_kmh, std::uint8_t source_address) noexcept;
+CanFrame encode_etc2_gear(int gear, std::uint8_t source_address) noexcept;
 
 class VehicleSpeedDecoder {  // not thread-safe: one thread feeds it. No allocation.
  public:

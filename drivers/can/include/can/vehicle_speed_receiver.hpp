@@ -6,9 +6,9 @@
 // direction comes from the gear), so foreign traffic costs this process nothing; frames the kernel had
 // to drop because this socket's queue was full are counted (SO_RXQ_OVFL). The thread sleeps in poll(2)
 // (a bounded wait, so stop() returns within kPollMs), never spins. Each frame is stamped on
-// CLOCK_MONOTONIC when read (the frames' clock), decoded, and, when a log is given, written there in
-// candump format before decoding (a recording's vehicle.log: replay decodes the same frames at the same
-// times). Samples travel through a bounded lock-free queue of kQueueSamples; a full queue (the consumer
+// CLOCK_MONOTONIC when read (the frames' clock; whole microseconds, as the log keeps them), decoded, and, when a log is
+// given, written there in candump format before decoding (a recording's vehicle.log: replay decodes the same frames at
+// the same times). Samples travel through a bounded lock-free queue of kQueueSamples; a full queue (the consumer
 // stopped draining for longer than the queue holds) drops the sample and counts it.
 #include <atomic>
 #include <cstdint>
