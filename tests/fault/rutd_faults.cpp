@@ -11,6 +11,9 @@
 //              the first call at that point (default: the whole run).
 //   --can-socketpair  sinks.socketcan (or --socketcan NAME) opens one end of a socketpair instead of a
 //              CAN socket; a thread reads the other end. Runs the CAN path without CAN kernel support.
+//   --speed-from LOG  trafficability.speed.socketcan (or --speed-socketcan NAME) receives on one end of a
+//              socketpair; a thread sends LOG's frames (a candump log) into the other end at the log's
+//              pace, from the moment the receiver opens (the vehicle's speed without CAN kernel support).
 // At exit, one line on stderr per point: "injected POINT N"; with --can-socketpair "peer received N".
 #include <fcntl.h>
 #include <sys/socket.h>
@@ -18,9 +21,11 @@
 
 #include <atomic>
 #include <cerrno>
+#include <chrono>
 #include <cstdio>
 #include <cstring>
 #include <exception>
+#include <fstream>
 #include <iostream>
 #include <map>
 #include <memory>
@@ -32,6 +37,9 @@
 #include <spdlog/sinks/stdout_color_sinks.h>
 #include <spdlog/spdlog.h>
 
+#include "can/candump_log.hpp"
+#include "can/socketcan_bus.hpp"
+#include "can/vehicle_speed_receiver.hpp"
 #include "core/input_error.hpp"
 #include "daemon/commands.hpp"
 
@@ -100,6 +108,7 @@ int main(int argc, char** argv) {
   spdlog::set_pattern("%Y-%m-%dT%H:%M:%S.%e %^%l%$ %v");
   rutd::IoFaults faults;
   bool socketpair_bus = false;
+  std::string speed_log;
   std::vector<char*> rest{argv[0]};
   try {
     int i = 1;
@@ -108,6 +117,8 @@ int main(int argc, char** argv) {
         add_fault(faults, argv[++i]);
       } else if (std::strcmp(argv[i], "--can-socketpair") == 0) {
         socketpair_bus = true;
+      } else if (std::strcmp(argv[i], "--speed-from") == 0 && i + 1 < argc) {
+        speed_log = argv[++i];
       } else {
         throw std::invalid_argument(std::string("unknown argument '") + argv[i] + "' before 'run'");
       }
@@ -145,6 +156,42 @@ int main(int argc, char** argv) {
     };
   }
 
+  // The vehicle: LOG's frames, paced by their timestamps, into the receiver's end of a socketpair.
+  std::thread vehicle;
+  std::atomic<std::uint64_t> vehicle_frames{0};
+  auto vehicle_start = std::make_shared<std::atomic<bool>>(false);
+  int vehicle_fds[2] = {-1, -1};
+  if (!speed_log.empty()) {
+    std::ifstream in(speed_log);
+    if (!in) {
+      std::cerr << "rutd_faults: --speed-from " << speed_log << ": cannot open\n";
+      return 2;
+    }
+    std::vector<std::pair<rutd::CanFrame, std::int64_t>> frames;
+    for (std::string line; std::getline(in, line);)
+      if (const auto f = rutd::parse_candump_line(line)) frames.push_back(*f);
+    if (socketpair(AF_UNIX, SOCK_SEQPACKET | SOCK_CLOEXEC, 0, vehicle_fds) != 0) return 2;
+    const int out_fd = vehicle_fds[1];
+    vehicle = std::thread([out_fd, frames = std::move(frames), vehicle_start, &vehicle_frames] {
+      while (!vehicle_start->load()) std::this_thread::sleep_for(std::chrono::milliseconds(1));
+      const auto t0 = std::chrono::steady_clock::now();
+      const std::int64_t first = frames.empty() ? 0 : frames.front().second;
+      for (const auto& [frame, t_ns] : frames) {
+        std::this_thread::sleep_until(t0 + std::chrono::nanoseconds(t_ns - first));
+        const struct can_frame k = rutd::to_kernel_frame(frame);
+        if (::send(out_fd, &k, sizeof k, MSG_NOSIGNAL) != static_cast<ssize_t>(sizeof k)) break;
+        vehicle_frames.fetch_add(1, std::memory_order_relaxed);
+      }
+      ::close(out_fd);
+    });
+    injection.open_speed = [fd = vehicle_fds[0], vehicle_start](
+                               const std::string& name, const rutd::VehicleSpeedConfig& config, std::ostream* log) {
+      auto receiver = rutd::VehicleSpeedReceiver::adopt(fd, name, config, log);
+      vehicle_start->store(true);
+      return receiver;
+    };
+  }
+
   CLI::App app{"rutd run with injected I/O faults (tests only)"};
   app.require_subcommand(1);
   int exit_code = 0;
@@ -163,6 +210,12 @@ int main(int argc, char** argv) {
     if (!*bus_adopted) ::close(bus_fd);  // the run never opened the bus
     peer.join();                         // the bus closed its end when the run ended
     std::fprintf(stderr, "peer received %llu\n", static_cast<unsigned long long>(peer_frames.load()));
+  }
+  if (vehicle.joinable()) {
+    // A run that never opened the receiver: its end is still ours; let the thread run out.
+    if (!vehicle_start->exchange(true)) ::close(vehicle_fds[0]);
+    vehicle.join();
+    std::fprintf(stderr, "vehicle sent %llu\n", static_cast<unsigned long long>(vehicle_frames.load()));
   }
   return exit_code;
 }
