@@ -35,7 +35,7 @@ def main(out, rate, duration, profile, gap):
             t = i / rate
             if gap_from <= t < gap_to:
                 continue
-            # canmatrix scales by the signal's factor (1 in j1939.dbc: the raw 1/256 km/h count).
+            # canmatrix's encode() takes raw values: 1/256 km/h counts.
             data = ccvs.encode({"Wheel_Based_Vehicle_Speed": round(speed(t) * 256)})
             us = round(t * 1e6)
             log.write(f"({us // 10**6:010d}.{us % 10**6:06d}) can0 18FEF100#{bytes(data).hex().upper()}\n")
