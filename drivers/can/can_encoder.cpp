@@ -39,6 +39,14 @@ constexpr Signal kUncertainty{24, 12, 0.01, 0.0, 0.0, 40.94};
 constexpr Signal kVerticalDisparity{36, 12, 0.01, -20.0, -20.0, 20.94};
 constexpr Signal kLeftObstructed{48, 8, 0.4, 0.0, 0.0, 100.0};
 constexpr Signal kRightObstructed{56, 8, 0.4, 0.0, 0.0, 100.0};
+constexpr Signal kSegmentEnd{16, 20, 0.01, 0.0, 0.0, 10485.74};
+constexpr Signal kSegmentMean{36, 12, 0.1, 0.0, 0.0, 409.4};
+constexpr Signal kSegmentP95{48, 12, 0.1, 0.0, 0.0, 409.4};
+constexpr int kSegmentWorstStartBit = 60;
+constexpr Signal kSegmentMax{16, 12, 0.1, 0.0, 0.0, 409.4};
+constexpr Signal kSegmentRefused{28, 8, 0.4, 0.0, 0.0, 100.0};
+constexpr Signal kSegmentFrames{36, 12, 1.0, 0.0, 0.0, 4094.0};
+constexpr Signal kSegmentStrength{48, 16, 0.1, 0.0, 0.0, 6553.4};
 constexpr int kFlagsStartBit = 16;
 constexpr int kDroppedStartBit = 40;
 constexpr int kDroppedBits = 24;
@@ -103,6 +111,8 @@ std::string check_can_id_config(const CanIdConfig& ids) {
                                                         {"measurement2_pgn", ids.measurement2_pgn},
                                                         {"status_pgn", ids.status_pgn},
                                                         {"conditions_pgn", ids.conditions_pgn},
+                                                        {"segment_pgn", ids.segment_pgn},
+                                                        {"segment_stats_pgn", ids.segment_stats_pgn},
                                                         {"version_pgn", ids.version_pgn}};
   for (const auto& [name, pgn] : pgns) {
     if (pgn > 0x3FFFF) return std::string(name) + ": PGN must be 0..0x3FFFF";
@@ -112,6 +122,8 @@ std::string check_can_id_config(const CanIdConfig& ids) {
                                                          {"measurement2_id_11bit", ids.measurement2_id_11bit},
                                                          {"status_id_11bit", ids.status_id_11bit},
                                                          {"conditions_id_11bit", ids.conditions_id_11bit},
+                                                         {"segment_id_11bit", ids.segment_id_11bit},
+                                                         {"segment_stats_id_11bit", ids.segment_stats_id_11bit},
                                                          {"version_id_11bit", ids.version_id_11bit}};
   for (const auto& [name, id] : ids11) {
     if (id > 0x7FF) return std::string(name) + ": must be 0..0x7FF";
@@ -177,6 +189,27 @@ CanFrame CanEncoder::encode_status(const SensorHealth& h) noexcept {
   protect(frame, kStatusDataId, status_counter_, status_nibble(h.last_status));
   status_counter_ = next_counter(status_counter_);
   return frame;
+}
+
+int CanEncoder::encode_segment(const Segment& s, std::array<CanFrame, 2>& out) noexcept {
+  const auto advisory = static_cast<std::uint8_t>(s.advisory);
+  CanFrame& first = out[0];
+  first = make_frame(ids_.segment_pgn, ids_.segment_id_11bit);
+  put(first.data, kSegmentEnd, s.end_m, true);
+  put(first.data, kSegmentMean, s.mean_depth_mm, true);
+  put(first.data, kSegmentP95, s.p95_depth_mm, true);
+  put_bits(first.data, kSegmentWorstStartBit, 4, s.frames > 0 ? status_nibble(s.worst_status) : kUnknownStatus);
+  protect(first, kSegmentDataId, segment_counter_, advisory);
+
+  CanFrame& second = out[1];
+  second = make_frame(ids_.segment_stats_pgn, ids_.segment_stats_id_11bit);
+  put(second.data, kSegmentMax, s.max_depth_mm, true);
+  put(second.data, kSegmentRefused, s.frames > 0 ? 100.0 * s.refused / s.frames : 0.0, s.frames > 0);
+  put(second.data, kSegmentFrames, static_cast<double>(s.frames), true);
+  put(second.data, kSegmentStrength, s.soil_strength, true);
+  protect(second, kSegmentStatsDataId, segment_counter_, advisory);
+  segment_counter_ = next_counter(segment_counter_);
+  return 2;
 }
 
 CanFrame CanEncoder::encode_version(const SoftwareVersion& v) noexcept {

@@ -39,6 +39,12 @@ void CanSink::publish(const PublishedFrame& frame) {
   if (log_stream_ != nullptr) log_stream_->flush();
 }
 
+void CanSink::publish_segment(const Segment& segment) {
+  const int n = encoder_.encode_segment(segment, frames_);
+  for (int i = 0; i < n; ++i) emit(frames_[static_cast<std::size_t>(i)], segment.t_end_ns);
+  if (log_stream_ != nullptr) log_stream_->flush();
+}
+
 void CanSink::publish_status(const SensorHealth& health, std::int64_t t_ns) {
   SensorHealth h = health;
   if (bus_ != nullptr) {

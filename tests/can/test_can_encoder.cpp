@@ -123,6 +123,10 @@ constexpr Range kFrameRate{0, 655.34, 0.01};
 constexpr Range kUncertainty{0, 40.94, 0.01};
 constexpr Range kVerticalDisparity{-20, 20.94, 0.01};
 constexpr Range kShare{0, 100, 0.4};
+constexpr Range kSegmentEnd{0, 10485.74, 0.01};
+constexpr Range kSegmentDepth{0, 409.4, 0.1};
+constexpr Range kSegmentFrames{0, 4094, 1};
+constexpr Range kSoilStrength{0, 6553.4, 0.1};
 
 struct Expect {
   bool na = false;
@@ -199,6 +203,53 @@ void expect_version(Expectations& e, int index, int counter, const SoftwareVersi
   e[{index, "SwModified"}] = exact(v.modified);
   e[{index, "SwCommitUnknown"}] = exact(!v.commit_known);
   e[{index, "SwCommit"}] = v.commit_known ? exact(v.commit_prefix) : not_available();
+}
+
+const char* advisory_text(Advisory a) {
+  switch (a) {
+    case Advisory::Unknown: return "UNKNOWN";
+    case Advisory::Go: return "GO";
+    case Advisory::Caution: return "CAUTION";
+    case Advisory::NoGo: return "NO_GO";
+  }
+  return "";
+}
+
+void expect_segment(Expectations& e, int index, int counter, const Segment& g) {
+  const double advisory = static_cast<int>(g.advisory);
+  e[{index, "RutG_Counter"}] = exact(counter);
+  e[{index, "RutG_Advisory"}] = exact(advisory, advisory_text(g.advisory));
+  e[{index, "SegmentEnd"}] = physical(g.end_m, kSegmentEnd);
+  e[{index, "SegmentMeanDepth"}] = physical(g.mean_depth_mm, kSegmentDepth);
+  e[{index, "SegmentP95Depth"}] = physical(g.p95_depth_mm, kSegmentDepth);
+  e[{index, "SegmentWorstStatus"}] =
+      g.frames > 0 ? exact(status_raw(g.worst_status), status_text(g.worst_status)) : exact(15, "UNKNOWN");
+  e[{index + 1, "RutGS_Counter"}] = exact(counter);
+  e[{index + 1, "RutGS_Advisory"}] = exact(advisory, advisory_text(g.advisory));
+  e[{index + 1, "SegmentMaxDepth"}] = physical(g.max_depth_mm, kSegmentDepth);
+  e[{index + 1, "SegmentRefused"}] = g.frames > 0 ? physical(100.0 * g.refused / g.frames, kShare) : not_available();
+  e[{index + 1, "SegmentFrames"}] = physical(g.frames, kSegmentFrames);
+  e[{index + 1, "SegmentSoilStrength"}] = physical(g.soil_strength, kSoilStrength);
+}
+
+// The ends of every field, a segment without measurements, and random segments.
+Segment segment_case(std::mt19937& rng, int k) {
+  Segment g;
+  g.index = static_cast<std::uint64_t>(k);
+  g.start_m = k;
+  g.end_m = k + 1.0;
+  if (k == 0) return g;  // no measurement: depths NaN, frames 0, UNKNOWN
+  auto uniform = [&](double lo, double hi) { return std::uniform_real_distribution<double>(lo, hi)(rng); };
+  g.frames = k == 1 ? 5000 : std::uniform_int_distribution<std::uint32_t>(1, 200)(rng);
+  g.refused = std::uniform_int_distribution<std::uint32_t>(0, g.frames)(rng);
+  g.mean_depth_mm = k == 1 ? 500 : uniform(-5, 420);
+  g.p95_depth_mm = uniform(-5, 420);
+  g.max_depth_mm = uniform(-5, 420);
+  g.end_m = k == 1 ? 20000 : uniform(0, 12000);
+  g.soil_strength = k == 2 ? kNaN : uniform(-10, 7000);
+  g.worst_status = static_cast<RutStatus>(k % kRutStatusCount);
+  g.advisory = static_cast<Advisory>(k % 4);
+  return g;
 }
 
 // ---------------------------------------------------------------------------------------------------
@@ -302,7 +353,7 @@ std::pair<Expectations, std::vector<CanFrame>> write_log(const fs::path& log_pat
   Expectations expected;
   std::vector<CanFrame> frames;
   std::mt19937 rng(7);
-  int status_count = 0;
+  int status_count = 0, segment_count = 0;
   const auto cases = measurement_cases();
   for (std::size_t k = 0; k < cases.size(); ++k) {
     std::array<CanFrame, 2> out{};
@@ -334,6 +385,18 @@ std::pair<Expectations, std::vector<CanFrame>> write_log(const fs::path& log_pat
         EXPECT_TRUE(writer.write(frames.back(), times.back()));
       }
       ++status_count;
+    }
+    if (k % 5 == 4) {  // a segment closes
+      std::array<CanFrame, 2> out{};
+      const Segment g = segment_case(rng, segment_count);
+      expect_segment(expected, static_cast<int>(frames.size()), segment_count % 15, g);
+      EXPECT_EQ(encoder.encode_segment(g, out), 2);
+      for (int i = 0; i < 2; ++i) {
+        frames.push_back(out[static_cast<std::size_t>(i)]);
+        times.push_back(t + 1'200'000 + i * 100'000);
+        EXPECT_TRUE(writer.write(frames.back(), times.back()));
+      }
+      ++segment_count;
     }
   }
   return {expected, frames};
@@ -401,6 +464,26 @@ TEST(CanEncoder, ElevenBitIdentifiersCarryTheSamePayload) {
 }
 
 // The worked example of can/can_encoder.hpp, byte for byte (bytes and CRC worked out by hand there).
+TEST(CanEncoder, SegmentFrameIsTheWorkedExample) {
+  CanEncoder encoder;
+  Segment g;
+  g.index = 12;
+  g.start_m = 12;
+  g.end_m = 13;
+  g.frames = 10;
+  g.mean_depth_mm = 85.0;
+  g.p95_depth_mm = 93.4;
+  g.worst_status = RutStatus::Ok;
+  g.advisory = Advisory::Caution;
+  std::array<CanFrame, 2> out{};
+  encoder.encode_segment(g, out);
+  EXPECT_EQ(out[0].id, 0x18FF54A0u);
+  EXPECT_EQ(out[1].id, 0x18FF55A0u);
+  const std::array<std::uint8_t, 7> want{0x20, 0x14, 0x05, 0x20, 0x35, 0xA6, 0x03};
+  for (int i = 0; i < 7; ++i)
+    EXPECT_EQ(out[0].data[static_cast<std::size_t>(i + 1)], want[static_cast<std::size_t>(i)]) << i;
+}
+
 TEST(CanEncoder, VersionFrameIsTheWorkedExample) {
   CanEncoder encoder;
   std::ostringstream os;

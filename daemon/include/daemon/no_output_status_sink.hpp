@@ -30,6 +30,7 @@ class NoOutputStatusSink final : public MeasurementSink {
     if (t_ns - published_ns_ >= after_ns_) h.last_status = RutStatus::NoMeasurement;
     next_.publish_status(h, t_ns);
   }
+  void publish_segment(const Segment& segment) override { next_.publish_segment(segment); }
 
  private:
   MeasurementSink& next_;

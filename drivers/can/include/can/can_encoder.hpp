@@ -9,8 +9,11 @@
 //   RutMeasurement2  PGN 0xFF51  -> 0x18FF51A0
 //   RutSensorStatus  PGN 0xFF52  -> 0x18FF52A0
 //   RutConditions    PGN 0xFF53  -> 0x18FF53A0
+//   RutSegment       PGN 0xFF54  -> 0x18FF54A0
+//   RutSegmentStats  PGN 0xFF55  -> 0x18FF55A0
 //   RutSoftwareVersion PGN 0xFF5F -> 0x18FF5FA0
-// or, with `extended = false`, the 11-bit identifiers of CanIdConfig (0x350, 0x351, 0x352, 0x353, 0x35F).
+// or, with `extended = false`, the 11-bit identifiers of CanIdConfig (0x350, 0x351, 0x352, 0x353, 0x354,
+// 0x355, 0x35F).
 //
 // Payload, every frame 8 bytes, signals little-endian (Intel), unsigned, physical = raw * factor +
 // offset. Protection in the AUTOSAR E2E profile 1 layout:
@@ -20,7 +23,8 @@
 //                   measurement frames of one measurement carry the same value; the status frame
 //                   and the version frame have their own counters.
 //   Data IDs        RutMeasurement1 0xFF50, RutMeasurement2 0xFF51, RutSensorStatus 0xFF52,
-//                   RutConditions 0xFF53, RutSoftwareVersion 0xFF5F. They are
+//                   RutConditions 0xFF53, RutSegment 0xFF54, RutSegmentStats 0xFF55,
+//                   RutSoftwareVersion 0xFF5F. They are
 //                   fixed per message (not derived from the configured identifiers) so a receiver's
 //                   check does not depend on the addressing. Unlike a strict profile 1 CRC (which
 //                   starts from 0x00 and ends without xor), the catalogue parameters above are used.
@@ -50,6 +54,20 @@
 //                                  CAN transmit drops, bus off, recording error
 //                    bits 24..39   frame rate  0.01 Hz   0..655.34 Hz
 //                    bits 40..63   dropped frames (count since start) 0..16777214
+//   RutSegment       one closed segment of the track (core/track.hpp, trafficability/): sent when it closes
+//                    byte 1 bits 4-7  advisory (Advisory number: 0 UNKNOWN, 1 GO, 2 CAUTION, 3 NO_GO)
+//                    bits 16..35   segment end    0.01 m    0..10485.74 m along the track
+//                    bits 36..47   mean depth     0.1 mm    0..409.4 mm (over its Ok measurements)
+//                    bits 48..59   P95 depth      0.1 mm    0..409.4 mm
+//                    bits 60..63   worst status (RutStatus number; 15 = no measurement on it)
+//   RutSegmentStats  sent right after RutSegment with the same counter; byte 1 bits 4-7 the advisory
+//                    bits 16..27   max depth      0.1 mm    0..409.4 mm
+//                    bits 28..35   refused        0.4 %     0..100 % of its measurements not Ok
+//                    bits 36..47   frames         1         0..4094 measurements placed on it
+//                    bits 48..63   soil strength  0.1 (the configured units, kPa)  0..6553.4
+//                    Worked example: segment 12 (12..13 m), advisory CAUTION, mean 85.0, P95 93.4 mm, worst
+//                    OK, counter 0: RutSegment bytes 1..7 = 20 14 05 20 35 A6 03 (end 13.00 m: 1300 =
+//                    0x00514; mean 850 = 0x352; P95 934 = 0x3A6; worst 0) after its CRC in byte 0.
 //   RutSoftwareVersion  what software runs (core/software_version.hpp); the status frames' companion, sent
 //                    with the first status frame and then once a second; own counter
 //                    byte 1 bits 4-7  package revision 0..14 (the Debian revision: 0.1.0-1 -> 1)
@@ -76,6 +94,7 @@
 #include "core/rut_measurement.hpp"
 #include "core/sensor_health.hpp"
 #include "core/software_version.hpp"
+#include "core/track.hpp"
 
 namespace rutd {
 
@@ -87,11 +106,15 @@ struct CanIdConfig {
   std::uint32_t measurement2_pgn = 0xFF51;
   std::uint32_t status_pgn = 0xFF52;
   std::uint32_t conditions_pgn = 0xFF53;
+  std::uint32_t segment_pgn = 0xFF54;
+  std::uint32_t segment_stats_pgn = 0xFF55;
   std::uint32_t version_pgn = 0xFF5F;
   std::uint32_t measurement1_id_11bit = 0x350;  // 0..0x7FF
   std::uint32_t measurement2_id_11bit = 0x351;
   std::uint32_t status_id_11bit = 0x352;
   std::uint32_t conditions_id_11bit = 0x353;
+  std::uint32_t segment_id_11bit = 0x354;
+  std::uint32_t segment_stats_id_11bit = 0x355;
   std::uint32_t version_id_11bit = 0x35F;
 };
 
@@ -108,6 +131,8 @@ inline constexpr std::uint16_t kMeasurement1DataId = 0xFF50;
 inline constexpr std::uint16_t kMeasurement2DataId = 0xFF51;
 inline constexpr std::uint16_t kStatusDataId = 0xFF52;
 inline constexpr std::uint16_t kConditionsDataId = 0xFF53;
+inline constexpr std::uint16_t kSegmentDataId = 0xFF54;
+inline constexpr std::uint16_t kSegmentStatsDataId = 0xFF55;
 inline constexpr std::uint16_t kVersionDataId = 0xFF5F;
 
 class CanEncoder {  // not thread-safe: one publisher thread owns it. Keeps the rolling counters.
@@ -126,6 +151,10 @@ class CanEncoder {  // not thread-safe: one publisher thread owns it. Keeps the 
   // The RutSensorStatus frame. Advances the status counter.
   CanFrame encode_status(const SensorHealth& h) noexcept;
 
+  // RutSegment (out[0]) and RutSegmentStats (out[1]) of a closed segment; returns 2. Advances the segment
+  // counter.
+  int encode_segment(const Segment& s, std::array<CanFrame, 2>& out) noexcept;
+
   // The RutSoftwareVersion frame. Advances its own counter.
   CanFrame encode_version(const SoftwareVersion& v) noexcept;
 
@@ -139,6 +168,7 @@ class CanEncoder {  // not thread-safe: one publisher thread owns it. Keeps the 
   std::uint8_t last_measurement_counter_ = 0;
   std::uint8_t status_counter_ = 0;
   std::uint8_t version_counter_ = 0;
+  std::uint8_t segment_counter_ = 0;
 };
 
 }  // namespace rutd

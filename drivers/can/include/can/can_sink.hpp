@@ -43,6 +43,8 @@ class CanSink final : public MeasurementSink {
           std::optional<SoftwareVersion> version = {});
   void publish(const PublishedFrame& frame) override;
   void publish_status(const SensorHealth& health, std::int64_t t_ns) override;
+  // RutSegment and RutSegmentStats, stamped (FrameClock) with the segment's last frame's time.
+  void publish_segment(const Segment& segment) override;
 
  private:
   // frame_t_ns: the time CandumpTime::FrameClock logs.
