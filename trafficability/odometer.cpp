@@ -42,8 +42,9 @@ VehicleMotion Odometer::motion_at(std::int64_t t_ns) const noexcept {
   }
   m.state = SpeedState::Ok;
   m.speed_mm_s = last_speed_mm_s_;
-  const double held = t_ns > last_t_ns_ ? last_speed_mm_s_ * static_cast<double>(t_ns - last_t_ns_) * 1e-9 : 0.0;
-  m.distance_m = std::max(max_position_mm_, position_mm_ + held) * 1e-3;
+  // Not extrapolated past the last sample: a later sample could only take it back (the distance must
+  // never decrease), and the lag is one sample period (20 ms at 50 Hz: 4 cm at 2 m/s).
+  m.distance_m = max_position_mm_ * 1e-3;
   return m;
 }
 

@@ -40,8 +40,7 @@ def motions(speed, frames, max_age_ns):
         if last is None or not last[1] or t - last[0] > max_age_ns:
             out.append(None)
             continue
-        held = last[2] * (t - last[0]) / 1e9 if t > last[0] else 0.0
-        out.append(max(far, pos + held) / 1000)
+        out.append(far / 1000)  # the furthest point at the last sample: not extrapolated
     return out
 
 

@@ -4,8 +4,9 @@
 // frame's capture time; the same samples give the same motions live and in replay.
 //
 // Integration: the signed position advances by the trapezoid rule between consecutive valid samples at
-// most max_age apart; between the last valid sample and a later query it holds that sample's speed (for
-// at most max_age). Nothing is integrated across a gap (a sample not Ok, or valid samples further apart
+// most max_age apart; a query between samples gets the position at the last sample (no extrapolation,
+// so the distance never decreases; it lags by at most one sample period) and that sample's speed, for at
+// most max_age. Nothing is integrated across a gap (a sample not Ok, or valid samples further apart
 // than max_age): the position holds there, counted as a gap, so the distance is never guessed; the
 // frames of the gap get no distance (NaN) and their segments are Unknown.
 //
