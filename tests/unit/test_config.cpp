@@ -343,3 +343,43 @@ TEST(RunSources, SyntheticCycleReplaysTheRenderedPairs) {
 
 }  // namespace
 }  // namespace rutd
+
+namespace rutd {
+namespace {
+
+TEST(Config, TrafficabilityIsReadAndCheckedNamingTheKey) {
+  const RutdConfig d = parse_config(default_config_text(), "(embedded default)");
+  EXPECT_TRUE(d.trafficability.socketcan.empty());
+  EXPECT_EQ(d.trafficability.segments.length_m, 1.0);
+  ASSERT_EQ(d.trafficability.segments.damage.size(), 3u);
+  EXPECT_EQ(d.trafficability.segments.damage[2].min_length_m, 4.0);
+  EXPECT_EQ(d.trafficability.segments.damage[2].max_share, 0.25);
+  const RutdConfig c = parse_config(
+      "trafficability:\n  speed: {socketcan: can1, source_address: 0x0B, direction_from_gear: true, max_age_ms: 200}\n"
+      "  segment_length_m: 0.5\n  advisory: {caution_depth_mm: 60, no_go_depth_mm: 100, hysteresis_m: 2}\n"
+      "  soil: {source: 'test lane 2024', table: [[0, 900], [100, 300]], vehicle_limit_one_pass: 400}\n",
+      "t.yaml");
+  EXPECT_EQ(c.trafficability.socketcan, "can1");
+  EXPECT_EQ(c.trafficability.speed.source_address, 0x0B);
+  EXPECT_TRUE(c.trafficability.speed.direction_from_gear);
+  EXPECT_EQ(c.trafficability.odometer.max_age_ns, 200'000'000);
+  EXPECT_EQ(c.trafficability.segments.length_m, 0.5);
+  EXPECT_EQ(c.trafficability.segments.advisory.no_go_depth_mm, 100);
+  ASSERT_EQ(c.trafficability.segments.soil.table.size(), 2u);
+  EXPECT_EQ(c.trafficability.segments.soil.limit_one_pass, 400);
+  expect_error("trafficability:\n  speed: {source_address: 0xFE}\n", {"line 2", "trafficability.speed.source_address"});
+  expect_error("trafficability:\n  speed: {message: dbc}\n", {"trafficability.speed.message", "dbc_signal"});
+  expect_error("trafficability:\n  speed: {message: dbc, dbc: /nonexistent.dbc, dbc_message: A, dbc_signal: B}\n",
+               {"trafficability.speed.dbc", "/nonexistent.dbc"});
+  expect_error("trafficability:\n  advisory: {caution_depth_mm: 90, no_go_depth_mm: 50}\n",
+               {"trafficability.advisory.no_go_depth_mm"});
+  expect_error("trafficability:\n  soil: {source: x, table: [[0, 100], [10, 200]]}\n",
+               {"trafficability.soil.table", "table[1]"});
+  expect_error("trafficability:\n  soil: {table: [[0, 100], [10, 50]]}\n", {"trafficability.soil", "source"});
+  expect_error("trafficability:\n  damage: [{name: x, depth_mm: 100, min_lenght_m: 1}]\n",
+               {"trafficability.damage[0].min_lenght_m", "unknown key"});
+  expect_error("trafficability:\n  segment_length_m: 0\n", {"trafficability.segment_length_m"});
+}
+
+}  // namespace
+}  // namespace rutd
