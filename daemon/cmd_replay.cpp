@@ -10,6 +10,7 @@
 #include <fstream>
 #include <iostream>
 #include <memory>
+#include <optional>
 
 #include <spdlog/spdlog.h>
 
@@ -20,9 +21,12 @@
 #include "daemon/commands.hpp"
 #include "daemon/measure_options.hpp"
 #include "daemon/no_output_status_sink.hpp"
+#include "daemon/position_join_sink.hpp"
 #include "daemon/progress.hpp"
 #include "daemon/replay_status.hpp"
 #include "daemon/run_summary.hpp"
+#include "gps/gps_config.hpp"
+#include "gps/gps_jsonl.hpp"
 #include "plots/plot_sink.hpp"
 #include "recording/measurement_csv_sink.hpp"
 #include "recording/recording.hpp"
@@ -38,6 +42,8 @@ struct ReplayOptions {
   std::string can_interface = "can0";
   std::string plots;  // empty: none
   std::uint64_t plot_every = 0;
+  bool positions = false;  // join the recording's gps.jsonl; the CSV gets the position columns
+  double max_fix_age_ms = GpsConfig{}.max_fix_age_ms;
   MeasureOptions measure;
 };
 
@@ -100,7 +106,19 @@ int run_replay(const ReplayOptions& o) {
 
   // The sinks of `rutd run`, with its status period and no-output rule (PipelineConfig's defaults).
   const PipelineConfig live;
-  MeasurementCsvSink csv(o.out.empty() ? "-" : o.out, "--out");
+  // Positions as they were joined live: the recording's gpsd reports, by their receive time.
+  std::unique_ptr<RecordedPositions> recorded;
+  if (o.positions) {
+    const std::string path = o.dir + "/" + kGpsJsonlFile;
+    if (!std::filesystem::exists(path))
+      throw InputError(path, "--positions", "the recording has no positions (recorded without gps.enabled)");
+    RecordedFixes fixes = read_recorded_fixes(path);
+    if (fixes.malformed > 0) spdlog::warn("{}: {} reports could not be read and were skipped", path, fixes.malformed);
+    recorded =
+        std::make_unique<RecordedPositions>(std::move(fixes.fixes), static_cast<std::int64_t>(o.max_fix_age_ms * 1e6));
+    spdlog::info("{}: {} fixes from {} gpsd reports", path, recorded->size(), fixes.reports);
+  }
+  MeasurementCsvSink csv(o.out.empty() ? "-" : o.out, "--out", nullptr, o.positions);
   std::unique_ptr<CandumpOutput> candump;
   if (!o.candump.empty()) candump = std::make_unique<CandumpOutput>(o.candump, o.can_interface, live.no_frame_timeout);
   std::unique_ptr<PlotSink> plots;
@@ -109,7 +127,10 @@ int run_replay(const ReplayOptions& o) {
   if (candump) outputs.push_back(&candump->sink);
   outputs.push_back(&csv);
   if (plots) outputs.push_back(plots.get());
-  SinkFanout sinks(outputs);
+  SinkFanout fanout(outputs);
+  std::optional<PositionJoinSink> joined;
+  if (recorded) joined.emplace(fanout, *recorded, true);
+  MeasurementSink& sinks = joined ? static_cast<MeasurementSink&>(*joined) : fanout;
   ReplayStatus status(live.status_period, live.no_frame_timeout);
 
   RunSummary summary;
@@ -205,6 +226,13 @@ void add_replay_command(CLI::App& app, int& exit_code) {
   cmd->add_option("--plot-every", options->plot_every,
                   "Also plot every N-th pair (the first pair of each status change is always plotted)")
       ->check(CLI::Range(0, 1000000));
+  cmd->add_flag("--positions", options->positions,
+                "Join the positions the recording's gps.jsonl holds to the pairs, as `rutd run` did; the CSV gets "
+                "the position columns");
+  cmd->add_option("--max-fix-age-ms", options->max_fix_age_ms,
+                  "With --positions: a fix older than this at a pair's capture time is stale (gps.max_fix_age_ms)")
+      ->capture_default_str()
+      ->check(CLI::Range(10.0, 600000.0));
   add_measure_options(*cmd, options->measure);
   cmd->callback([options, &exit_code] { exit_code = run_replay(*options); });
 }

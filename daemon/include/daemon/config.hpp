@@ -9,6 +9,7 @@
 
 #include "camera/aravis_config.hpp"
 #include "can/can_encoder.hpp"
+#include "gps/gps_config.hpp"
 #include "measurement/measurer.hpp"
 #include "plots/plot_sink.hpp"
 #include "runtime/realtime_pipeline.hpp"
@@ -30,6 +31,7 @@ struct SinkConfig {
   std::string candump = "-";                // candump -L log file; "-": standard output; empty: off
   std::string can_interface_name = "can0";  // interface name written in the candump log
   std::string csv;                          // measurement CSV file; empty: off
+  bool csv_positions = false;               // the CSV gets the position columns (needs gps.enabled)
   // sinks.plots: off by default. When on, PNG plots of chosen frames and of the run go to plots.dir from
   // the plot sink's own thread (rate-limited, dropped when behind, never blocking).
   bool plots_enabled = false;
@@ -67,6 +69,8 @@ struct RutdConfig {
   // in Stage order; entries past the last stage are ignored) and realtime_priority (SCHED_FIFO of every
   // stage thread) land in max_frame_age, status_period and threads. The daemon sets the rest.
   PipelineConfig pipeline;
+  // The `gps` section: positions from gpsd joined to every published pair (off by default).
+  GpsConfig gps;
   LoggingConfig logging;
 };
 
