@@ -30,7 +30,6 @@ bool FixHistory::add(const GeoFix& fix) noexcept {
 
 GeoFix FixHistory::at(std::int64_t t_ns, std::int64_t max_age_ns) const noexcept {
   GeoFix none;
-  if (count_ == 0) return none;
   none.mode = GeoFix::Mode::NoFix;
   // Newest first: the first fix received at or before t_ns is the one in force.
   for (std::size_t i = 1; i <= count_; ++i) {
@@ -67,7 +66,6 @@ RecordedPositions::RecordedPositions(std::vector<GeoFix> fixes, std::int64_t max
 
 GeoFix RecordedPositions::position_at(std::int64_t t_ns) const {
   GeoFix none;
-  if (fixes_.empty()) return none;
   none.mode = GeoFix::Mode::NoFix;
   // The first fix received after t_ns; the one before it is in force (as FixHistory::at).
   const auto after =

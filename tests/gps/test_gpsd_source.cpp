@@ -147,7 +147,7 @@ TEST_F(GpsdSourceTest, NoGpsdMeansNoPositionAndBoundedRetries) {
   GpsConfig c = config_for(port);
   GpsdSource source(c);
   std::this_thread::sleep_for(600ms);
-  EXPECT_EQ(source.position_at(monotonic_now_ns()).mode, GeoFix::Mode::None);
+  EXPECT_EQ(source.position_at(monotonic_now_ns()).mode, GeoFix::Mode::NoFix);
   const GpsStats s = source.stats();
   // 50, 100, 200, 200 ... ms: at least 3 attempts in 600 ms, and never more than one per 50 ms.
   EXPECT_GE(s.connect_failures, 3u);

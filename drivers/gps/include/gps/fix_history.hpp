@@ -28,8 +28,9 @@ class FixHistory {
   bool add(const GeoFix& fix) noexcept;
 
   // The position at time t_ns (same clock as the fixes' t_ns): the latest fix received at or before t_ns
-  // when it is valid and at most max_age_ns old. Otherwise a fix with Mode::NoFix (no fix in force, or
-  // the one in force is stale or has no fix), or Mode::None when no report has been added at all.
+  // when it is valid and at most max_age_ns old. Otherwise a fix with Mode::NoFix: none received yet (gpsd
+  // absent, or t_ns before the first), or the one in force is stale or has no fix. (Mode::None is left
+  // for frames without a positioning source at all.)
   GeoFix at(std::int64_t t_ns, std::int64_t max_age_ns) const noexcept;
 
   std::size_t size() const noexcept { return count_; }

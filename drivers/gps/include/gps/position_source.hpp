@@ -12,7 +12,7 @@ class PositionSource {
  public:
   virtual ~PositionSource() = default;
   // The fix in force at t_ns (CLOCK_MONOTONIC, the frames' clock): the latest received at or before it,
-  // when valid and not older than the source's limit; else Mode::NoFix, or Mode::None before any report.
+  // when valid and not older than the source's limit; else Mode::NoFix (also before any report).
   // Thread-safe where the implementation says so; must not block for long (called per frame).
   virtual GeoFix position_at(std::int64_t t_ns) const = 0;
 };

@@ -15,7 +15,7 @@
 //
 //   ...,valid_fraction,fix_mode,latitude_deg,longitude_deg,altitude_m,horizontal_error_m,heading_deg
 //
-// fix_mode is NONE (no positioning source), NO_FIX (none in force: no fix, or stale), 2D or 3D; the other
+// fix_mode is NONE (no positioning source), NO_FIX (none in force: gpsd absent, no fix, or stale), 2D or 3D; the other
 // fields are empty unless there is a fix (and the receiver gave them): degrees WGS84 with 9 decimals (gpsd
 // reports 9; 1e-9 degree is 0.1 mm), altitude and error in metres with 3, heading in degrees with 2.
 #include <cstdint>
