@@ -162,7 +162,7 @@ inline int matching_epoch(const std::vector<TruthEpoch>& truth, double lat, doub
 
 // Writes a drive log (nmea_drive.py) into dir: drive.nmea and drive_truth.csv.
 inline void write_drive(const fs::path& dir, const std::string& extra_args) {
-  const std::string cmd = "python3 " + test::quoted(fs::path(kGpsTestDir) / "nmea_drive.py") + " --out " +
+  const std::string cmd = "/usr/bin/python3 " + test::quoted(fs::path(kGpsTestDir) / "nmea_drive.py") + " --out " +
                           test::quoted(dir / "drive.nmea") + " --truth " + test::quoted(dir / "drive_truth.csv") + " " +
                           extra_args;
   ASSERT_EQ(run_shell(cmd), 0) << cmd;

@@ -118,8 +118,8 @@ TEST_F(GpsdSourceTest, MalformedReportsTimeJumpsAndDisconnectsAreCountedAndSurvi
                             tpv("2026-11-25T13:00:00.400Z", -25.3, 28.3)});
   write_lines(dir_ / "s2",
               {tpv("2026-11-25T13:00:01.000Z", -25.4, 28.4), tpv("2026-11-25T13:00:01.200Z", -25.5, 28.5)});
-  test::ProcessGroup fake({"python3", test::kGpsTestDir + "/fake_gpsd.py", "--port", std::to_string(port), "--gap",
-                           "0.05", (dir_ / "s1").string(), (dir_ / "s2").string()},
+  test::ProcessGroup fake({"/usr/bin/python3", test::kGpsTestDir + "/fake_gpsd.py", "--port", std::to_string(port),
+                           "--gap", "0.05", (dir_ / "s1").string(), (dir_ / "s2").string()},
                           dir_ / "fake.log");
   ASSERT_TRUE(fake.started());
   ASSERT_TRUE(test::wait_for_port(port, 10s)) << test::read_text(dir_ / "fake.log");
