@@ -1,6 +1,7 @@
-// rutd map CSV... --out DIR: where the ruts are. Reads measurement CSVs with positions (`rutd replay REC
-// --positions --out X.csv`, or sinks.csv with sinks.csv_positions), one per drive in the order driven,
-// and writes into DIR:
+// rutd map RECORDING|CSV... --out DIR: where the ruts are. Takes one drive per argument, in the order
+// driven: a recording folder with gps.jsonl (measured here as `rutd replay REC --positions` does, into
+// DIR/NAME.measured.csv) or a measurement CSV with positions (`rutd replay --positions --out`, or sinks.csv
+// with sinks.csv_positions), and writes into DIR:
 //   track.geojson     one Point feature per track piece (WGS84 lon/lat) with its drive, pass, depth
 //                     (mean, max), depth uncertainty, horizontal error, heading, advisory and the sinkage
 //                     increase over the earlier pass where matched; opens in QGIS
@@ -21,6 +22,8 @@
 
 #include "core/input_error.hpp"
 #include "daemon/commands.hpp"
+#include "daemon/measure_options.hpp"
+#include "daemon/replay.hpp"
 #include "plots/plots.hpp"
 #include "recording/measurement_csv.hpp"
 #include "trafficability/passes.hpp"
@@ -29,10 +32,28 @@ namespace rutd {
 namespace {
 
 struct MapOptions {
-  std::vector<std::string> csvs;
+  std::vector<std::string> drives;  // recording folders or measurement CSVs
   std::string out;
   PassConfig passes;
+  double max_fix_age_ms = GpsConfig{}.max_fix_age_ms;
+  MeasureOptions measure;
 };
+
+// A drive's measurement CSV: the argument itself, or the measurement of the recording it names.
+std::string measured_csv(const std::string& drive, const MapOptions& o) {
+  if (!std::filesystem::is_directory(drive)) return drive;
+  ReplayOptions r;
+  r.dir = drive;
+  std::string name = std::filesystem::path(drive).filename().string();
+  if (name.empty()) name = std::filesystem::path(drive).parent_path().filename().string();
+  r.out = (std::filesystem::path(o.out) / (name + ".measured.csv")).string();
+  r.positions = true;
+  r.max_fix_age_ms = o.max_fix_age_ms;
+  r.measure = o.measure;
+  if (replay_recording(r) != 0)
+    spdlog::warn("{}: some pairs could not be measured (see above); mapping the others", drive);
+  return r.out;
+}
 
 // Track pieces of one drive from its measurement rows (see the file comment).
 std::vector<Segment> pieces_of(const MeasurementCsv& csv) {
@@ -107,17 +128,18 @@ void write_file(const std::filesystem::path& path, const std::string& text) {
 }
 
 int run_map(const MapOptions& o) {
+  std::error_code ec;
+  std::filesystem::create_directories(o.out, ec);
+  if (ec) throw InputError(o.out, "--out", "cannot create the folder: " + ec.message());
   std::vector<std::vector<Segment>> drives;
-  for (const std::string& path : o.csvs) {
+  for (const std::string& drive : o.drives) {
+    const std::string path = measured_csv(drive, o);
     const MeasurementCsv csv = read_measurement_csv(path);  // throws InputError naming file and line
     if (!csv.has_positions)
       throw InputError(path, "line 1", "no position columns (measure with positions: rutd replay --positions)");
     drives.push_back(pieces_of(csv));
     if (drives.back().empty()) spdlog::warn("{}: no measurement with a position; nothing to map from it", path);
   }
-  std::error_code ec;
-  std::filesystem::create_directories(o.out, ec);
-  if (ec) throw InputError(o.out, "--out", "cannot create the folder: " + ec.message());
   const PassNumbering passes = number_passes(drives, o.passes);
 
   // Sinkage increase per piece, where matched.
@@ -140,7 +162,7 @@ int run_map(const MapOptions& o) {
       geo << (first ? "" : ",") << "\n"
           << R"({"type":"Feature","geometry":{"type":"Point","coordinates":[)" << number(s.position.longitude_deg, 9)
           << "," << number(s.position.latitude_deg, 9) << "]},\"properties\":{\"drive\":" << d << ",\"source\":\""
-          << json_text(std::filesystem::path(o.csvs[d]).filename().string()) << "\",\"piece\":" << i
+          << json_text(std::filesystem::path(o.drives[d]).filename().string()) << "\",\"piece\":" << i
           << ",\"pass\":" << s.pass << ",\"start_m\":" << number(s.start_m, 3) << ",\"end_m\":" << number(s.end_m, 3)
           << ",\"frames\":" << s.frames << ",\"refused\":" << s.refused
           << ",\"mean_depth_mm\":" << number(s.mean_depth_mm, 3) << ",\"max_depth_mm\":" << number(s.max_depth_mm, 3)
@@ -200,10 +222,11 @@ void add_map_command(CLI::App& app, int& exit_code) {
   auto o = std::make_shared<MapOptions>();
   CLI::App* cmd = app.add_subcommand(
       "map", "Map measured ruts: GeoJSON, depth along the track per pass (PNG) and the matched passes (CSV)");
-  cmd->add_option("csv", o->csvs,
-                  "Measurement CSVs with positions, one per drive in the order driven (rutd replay REC --positions)")
+  cmd->add_option("drives", o->drives,
+                  "One per drive, in the order driven: a recording folder with gps.jsonl (measured here, as rutd "
+                  "replay --positions does), or a measurement CSV with positions")
       ->required()
-      ->check(CLI::ExistingFile);
+      ->check(CLI::ExistingPath);
   cmd->add_option("--out", o->out, "Output folder (created if missing)")->required();
   cmd->add_option("--heading-tolerance-deg", o->passes.heading_tolerance_deg,
                   "Passes: headings may differ by at most this")
@@ -212,6 +235,11 @@ void add_map_command(CLI::App& app, int& exit_code) {
   cmd->add_option("--min-common-m", o->passes.min_common_m, "Passes: at least this many metres in common")
       ->capture_default_str()
       ->check(CLI::Range(0.0, 10000.0));
+  cmd->add_option("--max-fix-age-ms", o->max_fix_age_ms,
+                  "Recordings: a fix older than this at a pair's capture time is stale (gps.max_fix_age_ms)")
+      ->capture_default_str()
+      ->check(CLI::Range(10.0, 600000.0));
+  add_measure_options(*cmd, o->measure);
   cmd->callback([o, &exit_code] { exit_code = run_map(*o); });
 }
 

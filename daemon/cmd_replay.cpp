@@ -23,6 +23,7 @@
 #include "daemon/no_output_status_sink.hpp"
 #include "daemon/position_join_sink.hpp"
 #include "daemon/progress.hpp"
+#include "daemon/replay.hpp"
 #include "daemon/replay_status.hpp"
 #include "daemon/run_summary.hpp"
 #include "gps/gps_config.hpp"
@@ -34,18 +35,6 @@
 
 namespace rutd {
 namespace {
-
-struct ReplayOptions {
-  std::string dir;
-  std::string out;      // empty or "-": stdout
-  std::string candump;  // empty: none
-  std::string can_interface = "can0";
-  std::string plots;  // empty: none
-  std::uint64_t plot_every = 0;
-  bool positions = false;  // join the recording's gps.jsonl; the CSV gets the position columns
-  double max_fix_age_ms = GpsConfig{}.max_fix_age_ms;
-  MeasureOptions measure;
-};
 
 // Pairs listed in DIR/frames.csv (lines after the header), for the progress line; 0 when unknown.
 std::uint64_t count_pairs(const std::string& dir) {
@@ -96,7 +85,9 @@ std::unique_ptr<PlotSink> make_plot_sink(const ReplayOptions& o, const StereoCal
   }
 }
 
-int run_replay(const ReplayOptions& o) {
+}  // namespace
+
+int replay_recording(const ReplayOptions& o) {
   // A file-size limit (RLIMIT_FSIZE) fails the write (EFBIG), which stops the replay with the rows so far
   // kept, instead of killing it.
   std::signal(SIGXFSZ, SIG_IGN);
@@ -208,8 +199,6 @@ int run_replay(const ReplayOptions& o) {
   return 0;
 }
 
-}  // namespace
-
 void add_replay_command(CLI::App& app, int& exit_code) {
   auto options = std::make_shared<ReplayOptions>();
   CLI::App* cmd = app.add_subcommand("replay", "Measure every stereo pair of a recording folder");
@@ -234,7 +223,7 @@ void add_replay_command(CLI::App& app, int& exit_code) {
       ->capture_default_str()
       ->check(CLI::Range(10.0, 600000.0));
   add_measure_options(*cmd, options->measure);
-  cmd->callback([options, &exit_code] { exit_code = run_replay(*options); });
+  cmd->callback([options, &exit_code] { exit_code = replay_recording(*options); });
 }
 
 }  // namespace rutd
