@@ -70,7 +70,7 @@ TEST_F(GpsRunTest, RunJoinsGpsdPositionsAndReplayReproducesThem) {
     EXPECT_NEAR(r.position.altitude_m, 1340.0, 1e-3);
   }
   // gpsfake starts its log as rutd starts; the pairs before the first fix have none.
-  EXPECT_GE(with_position, 30) << test::read_text(dir_ / "run.log");
+  EXPECT_GE(with_position, 20) << test::read_text(dir_ / "run.log");
 
   // The recording holds gpsd's reports, and replaying it joins the same positions to the same pairs.
   const std::string jsonl = test::read_text(dir_ / "rec" / "gps.jsonl");
@@ -97,7 +97,7 @@ TEST_F(GpsRunTest, RunJoinsGpsdPositionsAndReplayReproducesThem) {
     EXPECT_TRUE(same(r.position.heading_deg, it->second.heading_deg)) << "seq " << r.seq;
   }
   EXPECT_GE(compared, 40u);
-  EXPECT_GE(valid, 25u);
+  EXPECT_GE(valid, 15u);
 }
 
 TEST_F(GpsRunTest, WithoutGpsdEveryPairIsMeasuredWithoutPosition) {
