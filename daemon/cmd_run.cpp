@@ -181,7 +181,20 @@ int run_daemon(const RunOptions& o, const RunInjection& injection) {
 
   install_stop_handlers();
   ServiceNotifier systemd;
-  RealtimePipeline pipeline(*source, stages, published, pipeline_config(c));
+  PipelineConfig pipeline_settings = pipeline_config(c);
+  if (gps) {
+    // The positions' state with each summary (publish thread, which also owns the join's counts).
+    pipeline_settings.on_log = [g = gps.get(), j = &*positions](const PipelineStats& s) {
+      spdlog::info("{}", describe(s));
+      const GpsStats gs = g->stats();
+      spdlog::info(
+          "gps: gpsd {}, {} pairs with a position, {} without; {} fixes, {} without a fix, {} malformed, {} "
+          "connections lost, {} time jumps",
+          gs.connected ? "connected" : "not connected", j->stats().with_position, j->stats().without_position, gs.fixes,
+          gs.no_fix_reports, gs.malformed, gs.disconnects, gs.time_jumps);
+    };
+  }
+  RealtimePipeline pipeline(*source, stages, published, pipeline_settings);
   spdlog::info("rutd {}, {}: source {}, engine {}{}, CAN to {}{}{}{}", version_line(), c.file, describe_source(c),
                to_string(c.measurement.engine), c.measurement.dic ? " + DIC" : "",
                bus ? c.sinks.socketcan : std::string("no bus"),

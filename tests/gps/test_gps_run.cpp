@@ -2,7 +2,8 @@
 // fed by gpsfake from a generated drive, writes the measurement CSV with each pair's position (every one
 // equal to a position of the NMEA log within its resolution, in the log's order) and records gpsd's
 // reports as gps.jsonl beside the pairs; `rutd replay --positions` of that recording joins exactly the
-// same positions to the same pairs. Without gpsd, rutd measures every pair all the same, with no position.
+// same positions to the same pairs. Without gpsd, rutd measures every pair all the same, with no position,
+// and says so in every periodic summary.
 #include <map>
 #include <set>
 
@@ -33,7 +34,8 @@ class GpsRunTest : public ::testing::Test {
     const path config = dir_ / "rutd.yaml";
     std::ofstream(config) << "source:\n  synthetic:\n    size: 320x240\n    fps: 15\n"
                           << "sinks:\n  candump: \"\"\n  csv_positions: true\n"
-                          << "gps:\n  enabled: true\n  port: \"" << port << "\"\n  reconnect_min_ms: 50\n";
+                          << "gps:\n  enabled: true\n  port: \"" << port << "\"\n  reconnect_min_ms: 50\n"
+                          << "logging:\n  stats_period_s: 0.2\n";
     return config;
   }
   path dir_;
@@ -116,6 +118,8 @@ TEST_F(GpsRunTest, WithoutGpsdEveryPairIsMeasuredWithoutPosition) {
   const std::string log = test::read_text(dir_ / "run.log");
   EXPECT_NE(log.find("no gpsd at 127.0.0.1"), std::string::npos) << log;
   EXPECT_NE(log.find("0 pairs with a position"), std::string::npos) << log;
+  // The condition, with every periodic summary while it lasts.
+  EXPECT_NE(log.find("gps: gpsd not connected, 0 pairs with a position"), std::string::npos) << log;
 }
 
 }  // namespace
