@@ -11,6 +11,7 @@
 // Until distance segments (trafficability/) reach the recordings, a track piece is the stretch between two
 // receiver epochs: the consecutive measurements that share one fix, with their mean depth, its standard
 // error as the uncertainty and the distance between fixes as its length; advisory is UNKNOWN.
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -194,20 +195,45 @@ int run_map(const MapOptions& o) {
   }
   write_file(std::filesystem::path(o.out) / "matched.csv", matched.str());
 
+  // Depth along the track, passes over the same ground at the same abscissa: the first drive at its own
+  // distance, a later drive's matched pieces at the distance of the piece they matched (recursively, so
+  // all on the first drive's); its pieces on ground no earlier drive covered are left out of the plot
+  // (they are in the GeoJSON); a drive that matched nothing is drawn at its own distance.
+  std::vector<std::vector<double>> along(drives.size());
   std::vector<DepthAlongTrack> lines;
   for (std::size_t d = 0; d < drives.size(); ++d) {
     DepthAlongTrack line;
     std::uint32_t max_pass = 0;
-    for (const Segment& s : drives[d]) {
-      line.distance_m.push_back(0.5 * (s.start_m + s.end_m));
-      line.depth_mm.push_back(s.mean_depth_mm);
-      max_pass = std::max(max_pass, s.pass);
+    along[d].assign(drives[d].size(), NAN);
+    for (std::size_t i = 0; i < drives[d].size(); ++i) along[d][i] = 0.5 * (drives[d][i].start_m + drives[d][i].end_m);
+    if (!passes.matches[d].empty()) {
+      along[d].assign(drives[d].size(), NAN);
+      for (std::size_t k = 0; k < passes.matches[d].size(); ++k) {
+        const SegmentMatch& m = passes.matches[d][k];
+        along[d][m.later] = along[passes.covering[d][k]][m.earlier];
+      }
+    }
+    // In order of abscissa (several pieces may sit on one earlier piece), the line broken where it jumps
+    // over more than 2 m of ground (between stretches in common).
+    std::vector<std::pair<double, double>> points;
+    for (std::size_t i = 0; i < drives[d].size(); ++i) {
+      if (std::isfinite(along[d][i])) points.emplace_back(along[d][i], drives[d][i].mean_depth_mm);
+      max_pass = std::max(max_pass, drives[d][i].pass);
+    }
+    std::stable_sort(points.begin(), points.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+    for (std::size_t i = 0; i < points.size(); ++i) {
+      if (i > 0 && points[i].first - points[i - 1].first > 2.0) {
+        line.distance_m.push_back(NAN);
+        line.depth_mm.push_back(NAN);
+      }
+      line.distance_m.push_back(points[i].first);
+      line.depth_mm.push_back(points[i].second);
     }
     line.label = fmt::format("drive {} (up to pass {})", d, max_pass);
     lines.push_back(std::move(line));
   }
   const PlotResult png = plot_depth_along_track((std::filesystem::path(o.out) / "depth_by_pass.png").string(), lines,
-                                                "rut depth along the track, per drive");
+                                                "rut depth per drive, passes at the first drive's distance");
   if (!png.ok) spdlog::error("{}", png.error);
   std::size_t pieces = 0;
   for (const auto& d : drives) pieces += d.size();
