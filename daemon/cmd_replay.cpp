@@ -10,6 +10,7 @@
 #include <fstream>
 #include <iostream>
 #include <memory>
+#include <optional>
 
 #include <spdlog/spdlog.h>
 
@@ -21,10 +22,14 @@
 #include "daemon/config.hpp"
 #include "daemon/measure_options.hpp"
 #include "daemon/no_output_status_sink.hpp"
+#include "daemon/position_join_sink.hpp"
 #include "daemon/progress.hpp"
+#include "daemon/replay.hpp"
 #include "daemon/replay_status.hpp"
 #include "daemon/run_summary.hpp"
 #include "daemon/trafficability_sink.hpp"
+#include "gps/gps_config.hpp"
+#include "gps/gps_jsonl.hpp"
 #include "plots/plot_sink.hpp"
 #include "recording/measurement_csv_sink.hpp"
 #include "recording/recording.hpp"
@@ -33,18 +38,6 @@
 
 namespace rutd {
 namespace {
-
-struct ReplayOptions {
-  std::string dir;
-  std::string out;      // empty or "-": stdout
-  std::string candump;  // empty: none
-  std::string can_interface = "can0";
-  std::string plots;  // empty: none
-  std::uint64_t plot_every = 0;
-  std::string config;    // its trafficability section; empty: the embedded default
-  std::string segments;  // segment CSV; empty: none
-  MeasureOptions measure;
-};
 
 // DIR/vehicle.log (the CAN frames `rutd run` received, candump format, on the recording's clock) decoded
 // as the receiver decoded them live. A line that is not a CAN frame is reported (file and line) and
@@ -121,7 +114,9 @@ std::unique_ptr<PlotSink> make_plot_sink(const ReplayOptions& o, const StereoCal
   }
 }
 
-int run_replay(const ReplayOptions& o) {
+}  // namespace
+
+int replay_recording(const ReplayOptions& o) {
   // A file-size limit (RLIMIT_FSIZE) fails the write (EFBIG), which stops the replay with the rows so far
   // kept, instead of killing it.
   std::signal(SIGXFSZ, SIG_IGN);
@@ -131,7 +126,19 @@ int run_replay(const ReplayOptions& o) {
 
   // The sinks of `rutd run`, with its status period and no-output rule (PipelineConfig's defaults).
   const PipelineConfig live;
-  MeasurementCsvSink csv(o.out.empty() ? "-" : o.out, "--out");
+  // Positions as they were joined live: the recording's gpsd reports, by their receive time.
+  std::unique_ptr<RecordedPositions> recorded;
+  if (o.positions) {
+    const std::string path = o.dir + "/" + kGpsJsonlFile;
+    if (!std::filesystem::exists(path))
+      throw InputError(path, "--positions", "the recording has no positions (recorded without gps.enabled)");
+    RecordedFixes fixes = read_recorded_fixes(path);
+    if (fixes.malformed > 0) spdlog::warn("{}: {} reports could not be read and were skipped", path, fixes.malformed);
+    recorded =
+        std::make_unique<RecordedPositions>(std::move(fixes.fixes), static_cast<std::int64_t>(o.max_fix_age_ms * 1e6));
+    spdlog::info("{}: {} fixes from {} gpsd reports", path, recorded->size(), fixes.reports);
+  }
+  MeasurementCsvSink csv(o.out.empty() ? "-" : o.out, "--out", nullptr, o.positions);
   std::unique_ptr<CandumpOutput> candump;
   if (!o.candump.empty()) candump = std::make_unique<CandumpOutput>(o.candump, o.can_interface, live.no_frame_timeout);
   std::unique_ptr<PlotSink> plots;
@@ -164,7 +171,11 @@ int run_replay(const ReplayOptions& o) {
     };
   }
   SinkFanout fanout(outputs);
-  TrafficabilitySink sinks(fanout, pull, tc.odometer, tc.segments);
+  TrafficabilitySink traffic(fanout, pull, tc.odometer, tc.segments);
+  // Positions before trafficability, so that the segments carry them.
+  std::optional<PositionJoinSink> joined;
+  if (recorded) joined.emplace(traffic, *recorded, true);
+  MeasurementSink& sinks = joined ? static_cast<MeasurementSink&>(*joined) : traffic;
   ReplayStatus status(live.status_period, live.no_frame_timeout);
 
   RunSummary summary;
@@ -220,12 +231,12 @@ int run_replay(const ReplayOptions& o) {
     if (output_failed()) return 1;
   }
   status.finish(sinks);
-  sinks.finish();
+  traffic.finish();  // the last, open segment
   progress.clear();
   if (have_speed) {
     spdlog::info("vehicle.log: {} frames, {} speed samples ({} ok), {} lines not frames", speed_stats.frames,
                  speed_stats.samples, speed_stats.ok, bad_log_lines);
-    spdlog::info("trafficability: {}", sinks.describe());
+    spdlog::info("trafficability: {}", traffic.describe());
   }
   if (context.engine->device() != device)
     spdlog::warn("the engine left {} during the replay: now on {}", device, context.engine->device());
@@ -253,8 +264,6 @@ int run_replay(const ReplayOptions& o) {
   return 0;
 }
 
-}  // namespace
-
 void add_replay_command(CLI::App& app, int& exit_code) {
   auto options = std::make_shared<ReplayOptions>();
   CLI::App* cmd = app.add_subcommand("replay", "Measure every stereo pair of a recording folder");
@@ -275,8 +284,15 @@ void add_replay_command(CLI::App& app, int& exit_code) {
                   "Segment CSV file: the track's segments from the recording's vehicle.log (trafficability)");
   cmd->add_option("--config", options->config,
                   "Configuration whose trafficability section applies (default: the embedded one)");
+  cmd->add_flag("--positions", options->positions,
+                "Join the positions the recording's gps.jsonl holds to the pairs, as `rutd run` did; the CSV gets "
+                "the position columns");
+  cmd->add_option("--max-fix-age-ms", options->max_fix_age_ms,
+                  "With --positions: a fix older than this at a pair's capture time is stale (gps.max_fix_age_ms)")
+      ->capture_default_str()
+      ->check(CLI::Range(10.0, 600000.0));
   add_measure_options(*cmd, options->measure);
-  cmd->callback([options, &exit_code] { exit_code = run_replay(*options); });
+  cmd->callback([options, &exit_code] { exit_code = replay_recording(*options); });
 }
 
 }  // namespace rutd

@@ -28,12 +28,14 @@
 #include "daemon/dimensions.hpp"
 #include "daemon/latest_measurement_sink.hpp"
 #include "daemon/no_output_status_sink.hpp"
+#include "daemon/position_join_sink.hpp"
 #include "daemon/run_sources.hpp"
 #include "daemon/service_notifier.hpp"
 #include "daemon/stalling_stages.hpp"
 #include "daemon/stop_signal.hpp"
 #include "daemon/supervisor.hpp"
 #include "daemon/trafficability_sink.hpp"
+#include "gps/gpsd_source.hpp"
 #include "recording/calibration_file.hpp"
 #include "recording/frame_recorder.hpp"
 #include "recording/measurement_csv_sink.hpp"
@@ -123,7 +125,8 @@ int run_daemon(const RunOptions& o, const RunInjection& injection) {
   std::ofstream candump_file;
   std::ostream* candump_stream = open_stream(c.sinks.candump, candump_file, "sinks.candump");
   std::unique_ptr<MeasurementCsvSink> csv;
-  if (!c.sinks.csv.empty()) csv = std::make_unique<MeasurementCsvSink>(c.sinks.csv, "sinks.csv", injection.faults);
+  if (!c.sinks.csv.empty())
+    csv = std::make_unique<MeasurementCsvSink>(c.sinks.csv, "sinks.csv", injection.faults, c.sinks.csv_positions);
   std::unique_ptr<SocketCanBus> bus;
   if (!c.sinks.socketcan.empty()) {
     bus = injection.open_bus
@@ -195,15 +198,38 @@ int run_daemon(const RunOptions& o, const RunInjection& injection) {
   if (speed) pull = [r = speed.get()](std::int64_t up_to, SpeedSample& out) { return r->next(up_to, out); };
   SinkFanout fanout(sinks);
   TrafficabilitySink traffic(fanout, std::move(pull), c.trafficability.odometer, c.trafficability.segments);
+  // Positions (gps): gpsd read on its own thread, joined to every pair before the sinks (and the segments)
+  // see it, and its reports recorded beside the pairs (gps.jsonl) when recording.
+  std::unique_ptr<GpsJsonlWriter> gps_record;
+  if (c.gps.enabled && recorder) gps_record = std::make_unique<GpsJsonlWriter>(recorder->directory() + "/gps.jsonl");
+  std::unique_ptr<GpsdSource> gps;
+  if (c.gps.enabled) gps = std::make_unique<GpsdSource>(c.gps, gps_record.get());
+  std::optional<PositionJoinSink> positions;
+  if (gps) positions.emplace(traffic, *gps, pipeline_config(c).capture_clock_is_local);
+  MeasurementSink& published = positions ? static_cast<MeasurementSink&>(*positions) : traffic;
 
   install_stop_handlers();
   ServiceNotifier systemd;
-  RealtimePipeline pipeline(*source, stages, traffic, pipeline_config(c));
-  spdlog::info("rutd {}, {}: source {}, engine {}{}, CAN to {}{}{}", version_line(), c.file, describe_source(c),
+  PipelineConfig pipeline_settings = pipeline_config(c);
+  if (gps) {
+    // The positions' state with each summary (publish thread, which also owns the join's counts).
+    pipeline_settings.on_log = [g = gps.get(), j = &*positions](const PipelineStats& s) {
+      spdlog::info("{}", describe(s));
+      const GpsStats gs = g->stats();
+      spdlog::info(
+          "gps: gpsd {}, {} pairs with a position, {} without; {} fixes, {} without a fix, {} malformed, {} "
+          "connections lost, {} time jumps",
+          gs.connected ? "connected" : "not connected", j->stats().with_position, j->stats().without_position, gs.fixes,
+          gs.no_fix_reports, gs.malformed, gs.disconnects, gs.time_jumps);
+    };
+  }
+  RealtimePipeline pipeline(*source, stages, published, pipeline_settings);
+  spdlog::info("rutd {}, {}: source {}, engine {}{}, CAN to {}{}{}{}", version_line(), c.file, describe_source(c),
                to_string(c.measurement.engine), c.measurement.dic ? " + DIC" : "",
                bus ? c.sinks.socketcan : std::string("no bus"),
                log ? (", candump log to " + (c.sinks.candump == "-" ? std::string("stdout") : c.sinks.candump)) : "",
-               recorder ? ", recording to " + recorder->directory() : "");
+               recorder ? ", recording to " + recorder->directory() : "",
+               gps ? fmt::format(", positions from gpsd at {}:{}", c.gps.host, c.gps.port) : "");
   pipeline.start();
   if (stalling) {
     stalling->arm();
@@ -243,6 +269,17 @@ int run_daemon(const RunOptions& o, const RunInjection& injection) {
   if (segments_csv)
     spdlog::info("segment CSV {}: {} rows written, {} lost", segments_csv->path(), segments_csv->rows_written(),
                  segments_csv->rows_lost());
+  if (gps) {
+    gps->stop();
+    const GpsStats g = gps->stats();
+    const PositionJoinStats& j = positions->stats();
+    spdlog::info(
+        "gps {}:{}: {} pairs with a position, {} without (no gpsd, no fix or stale); {} fixes, {} reports "
+        "without a fix, {} malformed, {} connections, {} lost, {} failed attempts, {} time jumps{}",
+        c.gps.host, c.gps.port, j.with_position, j.without_position, g.fixes, g.no_fix_reports, g.malformed, g.connects,
+        g.disconnects, g.connect_failures, g.time_jumps,
+        gps_record ? fmt::format("; {} reports recorded, {} not", g.recorded, g.record_errors) : "");
+  }
   if (recorder) {
     recorder->close();  // writes what is still queued
     const FrameRecorderStats r = recorder->stats();

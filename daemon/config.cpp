@@ -10,6 +10,7 @@
 #include <yaml-cpp/yaml.h>
 
 #include "can/dbc_signal.hpp"
+#include "core/csv_fields.hpp"
 #include "core/input_error.hpp"
 #include "daemon/dimensions.hpp"
 #include "default_config.hpp"  // generated from config/rutd.yaml
@@ -515,6 +516,26 @@ void read_trafficability(Section s, TrafficabilityConfig& t) {
   s.finish();
 }
 
+// The `gps` section (gps/gps_config.hpp).
+void read_gps(Section s, GpsConfig& g) {
+  s.get<bool>("enabled", g.enabled)
+      .get<std::string>("host", g.host,
+                        [](const std::string& h) { return h.empty() ? std::string("must name gpsd's host") : ""; })
+      .get<std::string>("port", g.port,
+                        [](const std::string& p) {
+                          int v = 0;
+                          return parse_csv_number(p, v) && v >= 1 && v <= 65535
+                                     ? std::string()
+                                     : "expected a port number 1..65535, got '" + p + "'";
+                        })
+      .get<double>("max_fix_age_ms", g.max_fix_age_ms, in_range(10.0, 600000.0))
+      .get<double>("reconnect_min_ms", g.reconnect_min_ms, in_range(10.0, 60000.0))
+      .get<double>("reconnect_max_ms", g.reconnect_max_ms, in_range(10.0, 600000.0))
+      .get<double>("time_jump_s", g.time_jump_s, in_range(0.01, 86400.0));
+  if (g.reconnect_min_ms > g.reconnect_max_ms) s.fail("reconnect_min_ms", "must not be above reconnect_max_ms");
+  s.finish();
+}
+
 }  // namespace
 
 RutdConfig parse_config(const std::string& yaml_text, const std::string& file) {
@@ -566,8 +587,12 @@ RutdConfig parse_config(const std::string& yaml_text, const std::string& file) {
       .get<std::string>("socketcan", c.sinks.socketcan)
       .get<std::string>("candump", c.sinks.candump)
       .get<std::string>("can_interface_name", c.sinks.can_interface_name)
-      .get<std::string>("csv", c.sinks.csv);
+      .get<std::string>("csv", c.sinks.csv)
+      .get<bool>("csv_positions", c.sinks.csv_positions);
   read_plots(sinks.child("plots"), c.sinks);
+
+  read_gps(top.child("gps"), c.gps);
+  if (c.sinks.csv_positions && !c.gps.enabled) sinks.fail("csv_positions", "needs positions: gps.enabled: true");
   sinks.finish();
 
   Section pipeline = top.child("pipeline");

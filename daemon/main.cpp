@@ -34,6 +34,7 @@ int main(int argc, char** argv) {
   rutd::add_bench_command(app, exit_code);
   rutd::add_record_command(app, exit_code);
   rutd::add_cameras_command(app, exit_code);
+  rutd::add_map_command(app, exit_code);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

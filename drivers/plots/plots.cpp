@@ -445,4 +445,43 @@ PlotResult plot_series(const std::string& path, const std::vector<SeriesSample>&
   return f.write(path);
 }
 
+PlotResult plot_depth_along_track(const std::string& path, const std::vector<DepthAlongTrack>& drives,
+                                  const std::string& title, cv::Size page) {
+  double x0 = std::numeric_limits<double>::infinity(), x1 = -x0, y0 = x0, y1 = -x0;
+  for (const DepthAlongTrack& d : drives) {
+    for (std::size_t i = 0; i < d.distance_m.size() && i < d.depth_mm.size(); ++i) {
+      if (!std::isfinite(d.distance_m[i]) || !std::isfinite(d.depth_mm[i])) continue;
+      x0 = std::min(x0, d.distance_m[i]);
+      x1 = std::max(x1, d.distance_m[i]);
+      y0 = std::min(y0, d.depth_mm[i]);
+      y1 = std::max(y1, d.depth_mm[i]);
+    }
+  }
+  if (!std::isfinite(x0)) return fail(path, "no measured depth with a position to plot");
+  if (x1 - x0 < 1e-6) x1 = x0 + 1.0;
+  if (y1 - y0 < 2.0) y0 -= 1.0, y1 += 1.0;
+  const double xpad = 0.02 * (x1 - x0), ypad = 0.1 * (y1 - y0);
+  static constexpr PLINT kDriveColour[] = {kBlue, kRed, kGreen, kOrange, kPurple, kBrown};
+  const std::lock_guard lock(plplot_mutex);
+  Figure f(page);
+  plstream& pls = f.stream();
+  pls.vpor(0.09, 0.75, 0.12, 0.90);
+  pls.wind(x0 - xpad, x1 + xpad, y0 - ypad, y1 + ypad);
+  pls.col0(kLightGrey);
+  pls.box("g", 0, 0, "g", 0, 0);
+  pls.col0(kBlack);
+  pls.box("bcnst", 0, 0, "bcnstv", 0, 0);
+  pls.mtex("l", 5.0, 0.5, 0.5, "rut depth (mm)");
+  pls.mtex("b", 3.0, 0.5, 0.5, "distance along the track (m)");
+  pls.mtex("t", 1.2, 0.5, 0.5, title.c_str());
+  pls.width(1.5);
+  for (std::size_t k = 0; k < drives.size(); ++k) {
+    const PLINT colour = kDriveColour[k % std::size(kDriveColour)];
+    pls.col0(colour);
+    polyline(pls, drives[k].distance_m, drives[k].depth_mm);
+    pls.mtex("rv", 1.5, 0.95 - 0.06 * static_cast<double>(k), 0.0, drives[k].label.c_str());
+  }
+  return f.write(path);
+}
+
 }  // namespace rutd

@@ -17,6 +17,7 @@ namespace {
 
 constexpr int kStatusCount = kRutStatusCount;
 constexpr int kColumnCount = 3 + kMeasurementFieldCount;
+constexpr int kPositionColumnCount = 6;
 
 struct FieldSpec {
   const char* name;
@@ -70,18 +71,18 @@ bool parse_status(std::string_view text, RutStatus& status) {
 
 class RowParser {
  public:
-  RowParser(const std::string& path, std::uint64_t line_number) : path_(path), line_(line_number) {}
+  RowParser(const std::string& path, std::uint64_t line_number, bool positions)
+      : path_(path), line_(line_number), positions_(positions) {}
 
   [[noreturn]] void fail(const std::string& message) const {
     throw InputError(path_, "line " + std::to_string(line_), message);
   }
 
   MeasurementRow parse(std::string_view line) const {
-    std::string_view f[kColumnCount];
-    const std::size_t count = split_csv_fields(line, f, kColumnCount);
-    if (count != kColumnCount) {
-      fail("expected " + std::to_string(kColumnCount) + " fields, found " + std::to_string(count));
-    }
+    std::string_view f[kColumnCount + kPositionColumnCount];
+    const std::size_t columns = kColumnCount + (positions_ ? kPositionColumnCount : 0);
+    const std::size_t count = split_csv_fields(line, f, columns);
+    if (count != columns) fail("expected " + std::to_string(columns) + " fields, found " + std::to_string(count));
     MeasurementRow row;
     if (!parse_csv_number(f[0], row.seq)) fail("seq '" + std::string(f[0]) + "' is not a non-negative integer");
     if (!parse_csv_number(f[1], row.t_ns)) fail("t_ns '" + std::string(f[1]) + "' is not an integer");
@@ -89,6 +90,7 @@ class RowParser {
     for (int i = 0; i < kMeasurementFieldCount; ++i) {
       row.measurement.*kFields[i].member = parse_field(f[3 + i], row.measurement.status, i);
     }
+    if (positions_) row.position = parse_position(f + kColumnCount);
     return row;
   }
 
@@ -106,8 +108,35 @@ class RowParser {
     return value;
   }
 
+  GeoFix parse_position(const std::string_view* f) const {
+    GeoFix p;
+    bool known = false;
+    for (auto mode : {GeoFix::Mode::None, GeoFix::Mode::NoFix, GeoFix::Mode::Fix2d, GeoFix::Mode::Fix3d}) {
+      if (to_csv_text(mode) == f[0]) {
+        p.mode = mode;
+        known = true;
+      }
+    }
+    if (!known) fail("unknown fix_mode '" + std::string(f[0]) + "'");
+    static constexpr const char* names[] = {"latitude_deg", "longitude_deg", "altitude_m", "horizontal_error_m",
+                                            "heading_deg"};
+    double* members[] = {&p.latitude_deg, &p.longitude_deg, &p.altitude_m, &p.horizontal_error_m, &p.heading_deg};
+    for (int i = 0; i < 5; ++i) {
+      if (f[1 + i].empty()) continue;
+      if (!p.valid()) fail(std::string(names[i]) + " holds a value but must be empty without a fix");
+      if (!parse_csv_number(f[1 + i], *members[i]) || !std::isfinite(*members[i]))
+        fail(std::string(names[i]) + " '" + std::string(f[1 + i]) + "' is not a finite number");
+    }
+    if (p.valid() && (!std::isfinite(p.latitude_deg) || !std::isfinite(p.longitude_deg)))
+      fail("a fix needs latitude_deg and longitude_deg");
+    if (p.valid() && (std::abs(p.latitude_deg) > 90.0 || std::abs(p.longitude_deg) > 180.0))
+      fail("latitude_deg or longitude_deg out of range");
+    return p;
+  }
+
   const std::string& path_;
   std::uint64_t line_;
+  bool positions_;
 };
 
 }  // namespace
@@ -130,8 +159,33 @@ MeasurementCsvWriter::MeasurementCsvWriter(std::ostream& out, bool flush_each_li
   if (flush_each_line_) out_.flush();
 }
 
-void format_measurement_row(std::string& line, std::uint64_t seq, std::int64_t t_ns,
-                            const RutMeasurement& measurement) {
+std::string_view to_csv_text(GeoFix::Mode mode) noexcept {
+  switch (mode) {
+    case GeoFix::Mode::None: return "NONE";
+    case GeoFix::Mode::NoFix: return "NO_FIX";
+    case GeoFix::Mode::Fix2d: return "2D";
+    case GeoFix::Mode::Fix3d: return "3D";
+  }
+  return "NONE";
+}
+
+namespace {
+
+void append_position(std::string& line, const GeoFix& p) {
+  line.push_back(',');
+  line.append(to_csv_text(p.mode));
+  const double values[] = {p.latitude_deg, p.longitude_deg, p.altitude_m, p.horizontal_error_m, p.heading_deg};
+  static constexpr int decimals[] = {9, 9, 3, 3, 2};
+  for (int i = 0; i < 5; ++i) {
+    line.push_back(',');
+    if (p.valid() && std::isfinite(values[i])) append_fixed(line, values[i], decimals[i]);
+  }
+}
+
+}  // namespace
+
+void format_measurement_row(std::string& line, std::uint64_t seq, std::int64_t t_ns, const RutMeasurement& measurement,
+                            const GeoFix* position) {
   line.clear();
   append_integer(line, seq);
   line.push_back(',');
@@ -145,6 +199,7 @@ void format_measurement_row(std::string& line, std::uint64_t seq, std::int64_t t
       append_fixed(line, value, kFields[i].decimals);
     }
   }
+  if (position != nullptr) append_position(line, *position);
   line.push_back('\n');
 }
 
@@ -167,11 +222,14 @@ MeasurementCsv read_measurement_csv(std::istream& in, const std::string& path) {
   std::string line;
   if (!std::getline(in, line)) throw InputError(path, "line 1", "missing header (file is empty)");
   if (!line.empty() && line.back() == '\r') line.pop_back();
-  if (line != kMeasurementCsvHeader) {
+  MeasurementCsv csv;
+  const std::string with_positions =
+      std::string(kMeasurementCsvHeader) + "," + std::string(kMeasurementCsvPositionColumns);
+  csv.has_positions = line == with_positions;
+  if (line != kMeasurementCsvHeader && !csv.has_positions) {
     throw InputError(path, "line 1",
                      "header is '" + line + "' but must be '" + std::string(kMeasurementCsvHeader) + "'");
   }
-  MeasurementCsv csv;
   std::uint64_t line_number = 1;
   while (std::getline(in, line)) {
     ++line_number;
@@ -179,7 +237,7 @@ MeasurementCsv read_measurement_csv(std::istream& in, const std::string& path) {
     if (!line.empty() && line.back() == '\r') line.pop_back();
     if (line.empty()) continue;
     try {
-      csv.rows.push_back(RowParser(path, line_number).parse(line));
+      csv.rows.push_back(RowParser(path, line_number, csv.has_positions).parse(line));
     } catch (const InputError&) {
       if (!cut_off) throw;
       csv.truncated_tail = true;

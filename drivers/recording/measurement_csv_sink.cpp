@@ -15,8 +15,9 @@
 
 namespace rutd {
 
-MeasurementCsvSink::MeasurementCsvSink(const std::string& path, const std::string& key, IoFaults* faults)
-    : path_(path), faults_(faults) {
+MeasurementCsvSink::MeasurementCsvSink(const std::string& path, const std::string& key, IoFaults* faults,
+                                       bool positions)
+    : path_(path), positions_(positions), faults_(faults) {
   if (path == "-") {
     fd_ = STDOUT_FILENO;
   } else {
@@ -29,6 +30,10 @@ MeasurementCsvSink::MeasurementCsvSink(const std::string& path, const std::strin
   regular_file_ = ::fstat(fd_, &info) == 0 && S_ISREG(info.st_mode);
   line_.reserve(256);
   line_.assign(kMeasurementCsvHeader);
+  if (positions_) {
+    line_.push_back(',');
+    line_.append(kMeasurementCsvPositionColumns);
+  }
   line_.push_back('\n');
   if (!fd_write_all(fd_, line_.data(), line_.size())) {
     const std::string reason = std::strerror(errno);
@@ -47,7 +52,7 @@ void MeasurementCsvSink::publish(const PublishedFrame& frame) {
     ++stats_.rows_lost;
     return;
   }
-  format_measurement_row(line_, frame.seq, frame.t_ns, frame.measurement);
+  format_measurement_row(line_, frame.seq, frame.t_ns, frame.measurement, positions_ ? &frame.position : nullptr);
   if (fd_write_all(fd_, line_.data(), line_.size(), faults_, IoPoint::MeasurementWrite)) {
     size_ += line_.size();
     ++stats_.rows_written;

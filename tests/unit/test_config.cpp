@@ -78,6 +78,9 @@ std::string dump(const RutdConfig& c) {
   o << "\nplots=" << c.sinks.plots_enabled << "," << p.dir << "," << p.every << "," << p.min_interval_s << ","
     << p.queue << "," << p.series_period_s;
   o << "\nlogging=" << c.logging.level << "," << c.logging.stats_period_s << "\n";
+  o << "gps=" << c.gps.enabled << "," << c.gps.host << "," << c.gps.port << "," << c.gps.max_fix_age_ms << ","
+    << c.gps.reconnect_min_ms << "," << c.gps.reconnect_max_ms << "," << c.gps.time_jump_s << ","
+    << c.sinks.csv_positions << "\n";
   return o.str();
 }
 
@@ -379,6 +382,27 @@ TEST(Config, TrafficabilityIsReadAndCheckedNamingTheKey) {
   expect_error("trafficability:\n  damage: [{name: x, depth_mm: 100, min_lenght_m: 1}]\n",
                {"trafficability.damage[0].min_lenght_m", "unknown key"});
   expect_error("trafficability:\n  segment_length_m: 0\n", {"trafficability.segment_length_m"});
+TEST(ConfigGps, OffByDefaultAndReadWhenGiven) {
+  const RutdConfig d = parse_config(default_config_text(), "(embedded default)");
+  EXPECT_FALSE(d.gps.enabled);
+  EXPECT_FALSE(d.sinks.csv_positions);
+  const RutdConfig c = parse_config(
+      "gps:\n  enabled: true\n  host: gnss.local\n  port: \"2948\"\n  max_fix_age_ms: 800\n"
+      "sinks:\n  csv_positions: true\n",
+      "test.yaml");
+  EXPECT_TRUE(c.gps.enabled);
+  EXPECT_EQ(c.gps.host, "gnss.local");
+  EXPECT_EQ(c.gps.port, "2948");
+  EXPECT_DOUBLE_EQ(c.gps.max_fix_age_ms, 800.0);
+  EXPECT_TRUE(c.sinks.csv_positions);
+}
+
+TEST(ConfigGps, BadValuesNameTheFileAndKey) {
+  expect_error("gps:\n  port: \"http\"\n", {"line 2", "gps.port", "1..65535"});
+  expect_error("gps:\n  max_fix_age_ms: 0\n", {"line 2", "gps.max_fix_age_ms", "between"});
+  expect_error("gps:\n  reconnect_min_ms: 900\n  reconnect_max_ms: 100\n", {"gps.reconnect_min_ms"});
+  expect_error("gps:\n  enabld: true\n", {"line 2", "gps.enabld", "unknown key"});
+  expect_error("sinks:\n  csv_positions: true\n", {"line 2", "sinks.csv_positions", "gps.enabled"});
 }
 
 }  // namespace

@@ -250,3 +250,54 @@ TEST_F(MeasurementCsvFileTest, MissingFileNamesTheFile) {
 
 }  // namespace
 }  // namespace rutd
+
+namespace rutd {
+namespace {
+
+const std::string kPositionHeader = kHeader +
+                                    ",fix_mode,latitude_deg,longitude_deg,altitude_m,horizontal_error_m,"
+                                    "heading_deg";
+
+TEST(MeasurementCsvPositionTest, PositionColumnsHoldOnlyAFixsFields) {
+  GeoFix fix;
+  fix.mode = GeoFix::Mode::Fix3d;
+  fix.latitude_deg = -25.754494667;
+  fix.longitude_deg = 28.231410333;
+  fix.altitude_m = 1340.0;
+  fix.horizontal_error_m = 15.2;
+  std::string line;
+  format_measurement_row(line, 7, 70, RutMeasurement{}, &fix);
+  EXPECT_EQ(line, "7,70,NO_MEASUREMENT,,,,,,,,,,3D,-25.754494667,28.231410333,1340.000,15.200,\n");
+  GeoFix stale = fix;
+  stale.mode = GeoFix::Mode::NoFix;  // fields left from a fix are not written without one
+  format_measurement_row(line, 8, 80, RutMeasurement{}, &stale);
+  EXPECT_EQ(line, "8,80,NO_MEASUREMENT,,,,,,,,,,NO_FIX,,,,,\n");
+  format_measurement_row(line, 9, 90, RutMeasurement{}, nullptr);
+  EXPECT_EQ(line, "9,90,NO_MEASUREMENT,,,,,,,,,\n");
+}
+
+TEST_F(MeasurementCsvFileTest, PositionsRoundTripAndBadOnesAreNamed) {
+  write(kPositionHeader + "\n" + "1,10,NO_MEASUREMENT,,,,,,,,,,2D,-25.123456789,28.987654321,,3.500,271.25\n" +
+        "2,20,NO_MEASUREMENT,,,,,,,,,,NONE,,,,,\n");
+  const MeasurementCsv csv = read_measurement_csv(path_);
+  ASSERT_TRUE(csv.has_positions);
+  ASSERT_EQ(csv.rows.size(), 2u);
+  EXPECT_EQ(csv.rows[0].position.mode, GeoFix::Mode::Fix2d);
+  EXPECT_DOUBLE_EQ(csv.rows[0].position.latitude_deg, -25.123456789);
+  EXPECT_DOUBLE_EQ(csv.rows[0].position.longitude_deg, 28.987654321);
+  EXPECT_TRUE(std::isnan(csv.rows[0].position.altitude_m));
+  EXPECT_DOUBLE_EQ(csv.rows[0].position.heading_deg, 271.25);
+  EXPECT_EQ(csv.rows[1].position.mode, GeoFix::Mode::None);
+  const std::string h = kPositionHeader + "\n";
+  expect_error(h + "1,10,NO_MEASUREMENT,,,,,,,,,,4D,,,,,\n", "line 2", "unknown fix_mode '4D'");
+  expect_error(h + "1,10,NO_MEASUREMENT,,,,,,,,,,NO_FIX,-25.1,28.1,,,\n", "line 2",
+               "latitude_deg holds a value but must be empty without a fix");
+  expect_error(h + "1,10,NO_MEASUREMENT,,,,,,,,,,3D,,28.1,,,\n", "line 2",
+               "a fix needs latitude_deg and longitude_deg");
+  expect_error(h + "1,10,NO_MEASUREMENT,,,,,,,,,,3D,95.0,28.1,,,\n", "line 2",
+               "latitude_deg or longitude_deg out of range");
+  expect_error(h + "1,10,NO_MEASUREMENT,,,,,,,,,\n", "line 2", "expected 18 fields, found 12");
+}
+
+}  // namespace
+}  // namespace rutd

@@ -61,6 +61,8 @@ struct GeoFix {
   double altitude_m = std::numeric_limits<double>::quiet_NaN();
   double horizontal_error_m = std::numeric_limits<double>::quiet_NaN();  // gpsd's eph, 95 % estimate
   double heading_deg = std::numeric_limits<double>::quiet_NaN();         // track over ground, true north
+  double speed_m_s = std::numeric_limits<double>::quiet_NaN();           // speed over ground
+  std::int64_t utc_ns = 0;  // the fix's own time (UTC, ns since 1970) as the receiver gave it; 0: none
   bool valid() const noexcept { return mode == Mode::Fix2d || mode == Mode::Fix3d; }
 };
 

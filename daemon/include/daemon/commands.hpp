@@ -15,5 +15,6 @@ void add_calibrate_command(CLI::App& app, int& exit_code);  // chessboard pairs 
 void add_bench_command(CLI::App& app, int& exit_code);      // pipeline rate and latency figures
 void add_record_command(CLI::App& app, int& exit_code);     // record the configured source, no measuring
 void add_cameras_command(CLI::App& app, int& exit_code);    // list cameras and their features
+void add_map_command(CLI::App& app, int& exit_code);        // map measured ruts over passes (GeoJSON, PNG, CSV)
 
 }  // namespace rutd

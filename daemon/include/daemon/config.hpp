@@ -10,6 +10,7 @@
 #include "camera/aravis_config.hpp"
 #include "can/can_encoder.hpp"
 #include "can/vehicle_speed.hpp"
+#include "gps/gps_config.hpp"
 #include "measurement/measurer.hpp"
 #include "plots/plot_sink.hpp"
 #include "runtime/realtime_pipeline.hpp"
@@ -33,6 +34,7 @@ struct SinkConfig {
   std::string candump = "-";                // candump -L log file; "-": standard output; empty: off
   std::string can_interface_name = "can0";  // interface name written in the candump log
   std::string csv;                          // measurement CSV file; empty: off
+  bool csv_positions = false;               // the CSV gets the position columns (needs gps.enabled)
   // sinks.plots: off by default. When on, PNG plots of chosen frames and of the run go to plots.dir from
   // the plot sink's own thread (rate-limited, dropped when behind, never blocking).
   bool plots_enabled = false;
@@ -84,6 +86,8 @@ struct RutdConfig {
   // stage thread) land in max_frame_age, status_period and threads. The daemon sets the rest.
   PipelineConfig pipeline;
   TrafficabilityConfig trafficability;
+  // The `gps` section: positions from gpsd joined to every published pair (off by default).
+  GpsConfig gps;
   LoggingConfig logging;
 };
 

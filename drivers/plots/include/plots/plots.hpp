@@ -75,4 +75,14 @@ struct SeriesSample {
 PlotResult plot_series(const std::string& path, const std::vector<SeriesSample>& samples, const std::string& title,
                        cv::Size page = {1000, 800});
 
+// One drive's depth along its track, for the map's depth-by-pass plot: distance along the track (m) and
+// the segment's mean depth (NaN: not measured, a gap in the line).
+struct DepthAlongTrack {
+  std::string label;  // e.g. "drive 2 (pass 1 on 18 m)"
+  std::vector<double> distance_m, depth_mm;
+};
+// Depth against distance along the track, one coloured line per drive with a legend.
+PlotResult plot_depth_along_track(const std::string& path, const std::vector<DepthAlongTrack>& drives,
+                                  const std::string& title, cv::Size page = {1000, 600});
+
 }  // namespace rutd

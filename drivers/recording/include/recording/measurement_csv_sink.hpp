@@ -29,7 +29,9 @@ class MeasurementCsvSink final : public MeasurementSink {
   // Creates or truncates `path` ("-": standard output, not closed) and writes the header. Throws
   // InputError(path, key, ...) when it cannot. `faults`: tests only (core/io_faults.hpp,
   // IoPoint::MeasurementWrite, asked before every write()); not owned.
-  MeasurementCsvSink(const std::string& path, const std::string& key, IoFaults* faults = nullptr);
+  // positions: also the position columns (recording/measurement_csv.hpp) from PublishedFrame::position.
+  MeasurementCsvSink(const std::string& path, const std::string& key, IoFaults* faults = nullptr,
+                     bool positions = false);
   ~MeasurementCsvSink() override;
   MeasurementCsvSink(const MeasurementCsvSink&) = delete;
   MeasurementCsvSink& operator=(const MeasurementCsvSink&) = delete;
@@ -48,6 +50,7 @@ class MeasurementCsvSink final : public MeasurementSink {
   int fd_ = -1;
   bool owns_fd_ = false;
   bool regular_file_ = false;
+  bool positions_ = false;
   IoFaults* faults_;
   std::uint64_t size_ = 0;  // bytes of complete rows (and the header) in a regular file
   std::uint64_t lost_at_last_check_ = 0;
