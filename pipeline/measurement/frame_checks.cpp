@@ -237,6 +237,7 @@ void check_frame(const cv::Mat& left, const cv::Mat& right, const cv::Mat& dispa
   if (!c.enabled || left.empty() || left.size() != right.size() || left.type() != CV_8UC1 || right.type() != CV_8UC1 ||
       row_end <= row_begin || left.cols < 2 * c.block_px)
     return;
+  bool bottom_hidden = false;  // this check's own water finding (a waterline read through is not one)
   try {
     const cv::Mat* strips[2] = {&left, &right};
     StripStats stats[2];
@@ -350,8 +351,10 @@ void check_frame(const cv::Mat& left, const cv::Mat& right, const cv::Mat& dispa
         const double run_mm = unseen_flat_run_px(s, c.block_px, u0, u1, shift, c.flat_ratio * ground) * z / f;
         // The patch hides the bottom only where the profile's walls still descend into it; flanked by
         // bottom seen level on both sides (a smooth patch of mud, tread marks), the bottom is measured.
-        if (run_mm >= c.flat_min_width_mm && rut.unseen_depth_mm > c.flat_min_unseen_mm)
+        if (run_mm >= c.flat_min_width_mm && rut.unseen_depth_mm > c.flat_min_unseen_mm) {
           m.conditions |= kConditionWater;
+          bottom_hidden = true;
+        }
       }
     }
   } catch (...) {
@@ -368,7 +371,7 @@ void check_frame(const cv::Mat& left, const cv::Mat& right, const cv::Mat& dispa
     m.status = RutStatus::LensObstructed;
   } else if (m.conditions & kConditionCalibrationDrift) {
     m.status = RutStatus::CalibrationDrift;
-  } else if ((m.conditions & kConditionWater) && (depth_found(m.status) || m.status == RutStatus::NoRut)) {
+  } else if (bottom_hidden && (depth_found(m.status) || m.status == RutStatus::NoRut)) {
     m.status = RutStatus::BottomNotSeen;
   } else if ((m.conditions & kConditionVegetation) && m.status != RutStatus::RutAtEdge) {
     m.status = RutStatus::Vegetation;

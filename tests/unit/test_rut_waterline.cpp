@@ -1,0 +1,162 @@
+// The waterline (rut/waterline.hpp): found from brightness steps on constructed profiles, and the
+// refraction correction against an independent forward model (Fermat's principle solved by bisection).
+#include <cmath>
+#include <random>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "rut/extract.hpp"
+#include "rut/waterline.hpp"
+#include "test_rut_profile.hpp"
+
+namespace rutd {
+namespace {
+
+using namespace test;
+
+constexpr double kN = 1.333;
+
+struct Scene {
+  RutShape shape;
+  View view;
+  CrossSection section;
+  RutWorkspace ws;
+  RutMeasurement m;
+  Scene() {
+    view.ground_z = 400.0;
+    shape.depth = 40.0;
+    section = make_section(shape, view, -220.0, 441, 1.0, 0.05, 3);
+    m = extract_rut(section, RutConfig{}, ws);
+  }
+  // Brightness per bin: soil of grey level 100 with a log-normal texture of `texture` (log sd), times
+  // `below` where the terrain lies deeper than `level` under the ground on the side(s) asked for.
+  std::vector<double> brightness(double level, double below, double texture, bool left = true, bool right = true,
+                                 double right_level = kNaN) const {
+    std::mt19937 rng(7);
+    std::normal_distribution<double> noise(0.0, texture);
+    std::vector<double> b;
+    for (std::size_t i = 0; i < section.z_mm.size(); ++i) {
+      const double x = section.x0_mm + section.dx_mm * double(i);
+      const double depth = z_at_x(shape, view, x) - view.ground_z;
+      const double l = x < 0 ? level : std::isnan(right_level) ? level : right_level;
+      const bool wet = depth > l && ((x < 0 && left) || (x >= 0 && right));
+      b.push_back(100.0 * std::exp(noise(rng)) * (wet ? below : 1.0));
+    }
+    return b;
+  }
+};
+
+TEST(Waterline, FoundWhereBothWallsDarkenAtOneHeight) {
+  Scene s;
+  ASSERT_EQ(s.m.status, RutStatus::Ok);
+  WaterlineWorkspace ws;
+  const Waterline w = find_waterline(s.section, s.brightness(25.0, 0.6, 0.05), s.ws.geometry, WaterlineConfig{}, ws);
+  ASSERT_TRUE(w.found);
+  EXPECT_NEAR(w.level_mm, 25.0, 1.0);
+  EXPECT_LT(w.left_step, 0.0);
+  EXPECT_LT(w.right_step, 0.0);
+  EXPECT_LT(w.left_x_mm, 0.0);
+  EXPECT_GT(w.right_x_mm, 0.0);
+  // A lid brighter than the soil: the same rule, the other sense.
+  const Waterline lid = find_waterline(s.section, s.brightness(25.0, 1.6, 0.05), s.ws.geometry, WaterlineConfig{}, ws);
+  ASSERT_TRUE(lid.found);
+  EXPECT_GT(lid.left_step, 0.0);
+}
+
+TEST(Waterline, NotFoundOnOneWallOnly) {  // a shadow or a wet patch on one wall is no level surface
+  Scene s;
+  WaterlineWorkspace ws;
+  EXPECT_FALSE(
+      find_waterline(s.section, s.brightness(25.0, 0.6, 0.05, true, false), s.ws.geometry, WaterlineConfig{}, ws)
+          .found);
+}
+
+TEST(Waterline, NotFoundAtTwoHeights) {  // a surface is level: steps 10 mm apart are two other edges
+  Scene s;
+  WaterlineWorkspace ws;
+  EXPECT_FALSE(
+      find_waterline(s.section, s.brightness(15.0, 0.6, 0.05, true, true, 25.0), s.ws.geometry, WaterlineConfig{}, ws)
+          .found);
+}
+
+TEST(Waterline, NotFoundWhereTheSoilVariesAsMuch) {
+  Scene s;
+  WaterlineWorkspace ws;
+  // The soil's own texture at the window's scale as strong as the step: no evidence of a surface.
+  EXPECT_FALSE(find_waterline(s.section, s.brightness(25.0, 0.8, 0.35), s.ws.geometry, WaterlineConfig{}, ws).found);
+  // No step at all.
+  EXPECT_FALSE(find_waterline(s.section, s.brightness(25.0, 1.0, 0.05), s.ws.geometry, WaterlineConfig{}, ws).found);
+}
+
+// Forward model: the point of the X-Z plane where a camera at (cx, 0) sees the bottom point p through a
+// level surface at Z = surface (Fermat: the surface point where sin(i) = n sin(r), by bisection).
+cv::Point2d surface_point(double cx, cv::Point2d p, double surface) {
+  double lo = std::min(cx, p.x), hi = std::max(cx, p.x);
+  const auto f = [&](double sx) {
+    const double s1 = (sx - cx) / std::hypot(sx - cx, surface);
+    const double s2 = (p.x - sx) / std::hypot(p.x - sx, p.y - surface);
+    return s1 - kN * s2;
+  };
+  for (int i = 0; i < 200; ++i) {
+    const double mid = 0.5 * (lo + hi);
+    (f(mid) < 0.0 ? lo : hi) = mid;
+  }
+  return {0.5 * (lo + hi), surface};
+}
+
+// Where a stereo pair (baseline b) triangulates p seen through the surface: the straight lines from
+// each camera through its surface point, intersected.
+cv::Point2d apparent_point(cv::Point2d p, double b, double surface) {
+  const cv::Point2d sl = surface_point(0.0, p, surface), sr = surface_point(b, p, surface);
+  // (0,0) + t sl = (b,0) + u (sr - (b,0)): solve for t.
+  const double ax = sl.x, az = sl.y, bx = sr.x - b, bz = sr.y;
+  const double t = (b * bz) / (ax * bz - az * bx);
+  return {t * ax, t * az};
+}
+
+TEST(Waterline, RefractionRecoversTheBottomRayByRay) {
+  const double ground = 400.0, level = 12.0, baseline = 70.0;
+  RutGeometry g;
+  g.has_line = true;
+  g.line_m = 0.0;
+  g.line_c = ground;
+  // True bottom: a wall descending from the surface (x = -60) to 30 mm of water at x = -20, then flat.
+  const auto bottom = [&](double x) { return ground + level + std::clamp((x + 60.0) * 0.75, 0.0, 30.0); };
+  std::vector<cv::Point2d> seen;
+  for (double x = -100.0; x <= 100.0; x += 0.02) {
+    const cv::Point2d p(x, bottom(x));
+    seen.push_back(p.y > ground + level ? apparent_point(p, baseline, ground + level) : p);
+  }
+  CrossSection apparent;
+  apparent.x0_mm = -80.0;
+  apparent.dx_mm = 1.0;
+  for (int i = 0; i <= 160; ++i) {
+    const double x = -80.0 + i;
+    std::size_t k = 0;
+    while (k + 2 < seen.size() && seen[k + 1].x < x) ++k;
+    const double t = (x - seen[k].x) / (seen[k + 1].x - seen[k].x);
+    apparent.z_mm.push_back(seen[k].y + t * (seen[k + 1].y - seen[k].y));
+    apparent.count.push_back(1);
+  }
+  // The apparent bottom is about 1/n as deep below the surface: 30 mm reads as 22.5 mm.
+  EXPECT_NEAR(apparent.z_mm[110] - (ground + level), 30.0 / kN, 0.5);
+  CrossSection corrected;
+  WaterlineWorkspace ws;
+  refract_section(apparent, g, level, kN, baseline, 0.0, corrected, ws);
+  ASSERT_EQ(corrected.z_mm.size(), apparent.z_mm.size());
+  int checked = 0;
+  for (int i = 0; i <= 160; ++i) {
+    const double x = -80.0 + i;
+    ASSERT_FALSE(std::isnan(corrected.z_mm[static_cast<std::size_t>(i)])) << x;
+    EXPECT_NEAR(corrected.z_mm[static_cast<std::size_t>(i)], bottom(x), 0.01) << "x " << x;
+    ++checked;
+  }
+  EXPECT_EQ(checked, 161);
+  // Another index gives another bottom: the correction depends on n as the model says.
+  refract_section(apparent, g, level, 1.0, baseline, 0.0, corrected, ws);
+  EXPECT_NEAR(corrected.z_mm[110], apparent.z_mm[110], 1e-9);
+}
+
+}  // namespace
+}  // namespace rutd
