@@ -111,6 +111,13 @@ Waterline find_waterline(const CrossSection& section, const std::vector<double>&
       if ((l.step > 0) != (r.step > 0)) continue;  // wet (darker) on both walls, or a lid on both
       const double tolerance = config.level_tolerance_mm + 2.0 * dx * (std::abs(l.slope) + std::abs(r.slope));
       if (std::abs(l.depth - r.depth) > tolerance) continue;
+      // Below a waterline the whole submerged span stays wet (or lidded), not just a band at the step:
+      // its mean brightness must differ from the walls' just above in the same sense by at least half the
+      // threshold (a grain or a shadow band gives a local step only).
+      const double above = 0.5 * (window_mean(ws.log_brightness, l.bin - w + 1, l.bin, need) +
+                                  window_mean(ws.log_brightness, r.bin + 1, r.bin + w, need));
+      const double submerged = window_mean(ws.log_brightness, l.bin + 1, r.bin, need);
+      if (!((submerged - above) * (l.step > 0 ? 1.0 : -1.0) >= 0.5 * threshold)) continue;
       const double strength = std::min(std::abs(l.step), std::abs(r.step));
       if (strength <= best) continue;
       best = strength;

@@ -80,6 +80,18 @@ TEST(Waterline, NotFoundAtTwoHeights) {  // a surface is level: steps 10 mm apar
           .found);
 }
 
+TEST(Waterline, NotFoundForABandThatDoesNotPersistBelow) {  // a dark stripe at one height is no surface
+  Scene s;
+  WaterlineWorkspace ws;
+  std::vector<double> b = s.brightness(25.0, 0.6, 0.05);
+  const std::vector<double> dry = s.brightness(25.0, 1.0, 0.05);
+  for (std::size_t i = 0; i < b.size(); ++i) {
+    const double depth = z_at_x(s.shape, s.view, s.section.x0_mm + double(i)) - s.view.ground_z;
+    if (depth > 29.0) b[i] = dry[i];  // dark only between 25 and 29 mm below the ground
+  }
+  EXPECT_FALSE(find_waterline(s.section, b, s.ws.geometry, WaterlineConfig{}, ws).found);
+}
+
 TEST(Waterline, NotFoundWhereTheSoilVariesAsMuch) {
   Scene s;
   WaterlineWorkspace ws;
