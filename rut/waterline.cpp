@@ -136,6 +136,120 @@ Waterline find_waterline(const CrossSection& section, const std::vector<double>&
   return out;
 }
 
+namespace {
+
+// Robust bin-to-bin scatter of z over the bins `use` accepts: each valid bin against the mean of its two
+// valid neighbours (a parabola's curvature over two bins is far below the noise), 1.4826 MAD scaled to
+// one bin's sigma (the residual's variance is 1.5 times a bin's). NaN under 5 residuals.
+template <class Use>
+double bin_scatter(const std::vector<double>& z, Use use, std::vector<double>& scratch) {
+  scratch.clear();
+  for (std::size_t i = 1; i + 1 < z.size(); ++i) {
+    if (!use(static_cast<int>(i)) || std::isnan(z[i]) || std::isnan(z[i - 1]) || std::isnan(z[i + 1])) continue;
+    scratch.push_back(std::abs(z[i] - 0.5 * (z[i - 1] + z[i + 1])));
+  }
+  if (scratch.size() < 5) return kNaN;
+  return 1.4826 * detail::median_inplace(scratch.data(), scratch.data() + scratch.size()) / std::sqrt(1.5);
+}
+
+}  // namespace
+
+LevelSpan find_level_span(const CrossSection& section, const std::vector<double>& brightness,
+                          const RutGeometry& geometry, const WaterlineConfig& config, WaterlineWorkspace& ws) {
+  LevelSpan out;
+  const int n = static_cast<int>(section.z_mm.size());
+  if (!config.enabled || !config.lid_check || !geometry.has_line || !geometry.has_rut || n < 8 || !(section.dx_mm > 0))
+    return out;
+  const double dx = section.dx_mm;
+  const double m = geometry.line_m, c = geometry.line_c, norm = std::sqrt(1.0 + m * m);
+  const auto x_of = [&](int i) { return section.x0_mm + dx * i; };
+  ws.z.assign(static_cast<std::size_t>(n), kNaN);
+  for (int i = 0; i < n; ++i) {
+    const auto k = static_cast<std::size_t>(i);
+    if (!std::isnan(section.z_mm[k])) ws.z[k] = (section.z_mm[k] - (m * x_of(i) + c)) / norm;
+  }
+  const int lo = std::max(0, static_cast<int>(std::ceil((geometry.left_x_mm - section.x0_mm) / dx)));
+  const int hi = std::min(n - 1, static_cast<int>(std::floor((geometry.right_x_mm - section.x0_mm) / dx)));
+  const int deepest = static_cast<int>(std::lround((geometry.deepest_x_mm - section.x0_mm) / dx));
+  if (hi - lo < 8 || deepest < lo || deepest > hi) return out;
+  out.ground_roughness_mm = bin_scatter(
+      ws.z, [&](int i) { return i < lo - 2 || i > hi + 2; }, ws.values);
+  if (std::isnan(out.ground_roughness_mm)) return out;
+  const double tol = std::max(config.lid_tolerance_mm, 3.0 * out.ground_roughness_mm);
+  // Smoothed over three bins, so one noisy bin neither ends the span nor makes a crossing.
+  ws.step.assign(static_cast<std::size_t>(n), kNaN);
+  for (int i = 0; i < n; ++i) ws.step[static_cast<std::size_t>(i)] = window_mean(ws.z, i - 1, i + 1, 2);
+  const std::vector<double>& zs = ws.step;
+  const double bottom = window_mean(ws.z, deepest - 1, deepest + 1, 1);
+  if (std::isnan(bottom)) return out;
+  // The span: bins about the deepest within tol of its depth (gaps of up to two bins bridged).
+  const auto extend = [&](int dir) {
+    int last = deepest, gap = 0;
+    for (int i = deepest + dir; i >= lo && i <= hi; i += dir) {
+      const double v = zs[static_cast<std::size_t>(i)];
+      if (std::isnan(v)) {
+        if (++gap > 2) break;
+        continue;
+      }
+      if (v < bottom - tol) break;
+      gap = 0;
+      last = i;
+    }
+    return last;
+  };
+  const int a = extend(-1), b = extend(+1);
+  // Level and tilt: least squares over the span's valid bins.
+  double sx = 0, sz = 0, sxx = 0, sxz = 0;
+  int count = 0;
+  for (int i = a; i <= b; ++i) {
+    const double v = ws.z[static_cast<std::size_t>(i)];
+    if (std::isnan(v)) continue;
+    const double x = x_of(i);
+    sx += x;
+    sz += v;
+    sxx += x * x;
+    sxz += x * v;
+    ++count;
+  }
+  if (count < 5) return out;
+  const double den = count * sxx - sx * sx;
+  out.tilt = den > 0 ? (count * sxz - sx * sz) / den : 0.0;
+  out.level_mm = sz / count;
+  out.left_x_mm = x_of(a);
+  out.right_x_mm = x_of(b);
+  out.roughness_mm = bin_scatter(
+      ws.z, [&](int i) { return i >= a && i <= b; }, ws.values);
+  // Brightness across each end of the span: w bins on the span against w bins on the wall beyond it,
+  // against the same statistic's spread over the ground (find_waterline's threshold).
+  if (static_cast<int>(brightness.size()) == n) {
+    const int w = std::max(2, static_cast<int>(std::lround(config.step_window_mm / dx)));
+    const int need = (w + 1) / 2;
+    ws.log_brightness.assign(static_cast<std::size_t>(n), kNaN);
+    for (int i = 0; i < n; ++i)
+      if (std::isfinite(brightness[static_cast<std::size_t>(i)]))
+        ws.log_brightness[static_cast<std::size_t>(i)] =
+            std::log(std::max(brightness[static_cast<std::size_t>(i)], 1.0));
+    const auto& lb = ws.log_brightness;
+    out.left_step = window_mean(lb, a, a + w - 1, need) - window_mean(lb, a - w, a - 1, need);
+    out.right_step = window_mean(lb, b - w + 1, b, need) - window_mean(lb, b + 1, b + w, need);
+    ws.values.clear();
+    for (int i = 0; i + 1 < n; ++i) {
+      if (!(i + w < lo || i - w > hi)) continue;
+      const double st = window_mean(lb, i + 1, i + w, need) - window_mean(lb, i - w + 1, i, need);
+      if (!std::isnan(st)) ws.values.push_back(std::abs(st));
+    }
+    const double spread = ws.values.size() >= 10
+                              ? 1.4826 * detail::median_inplace(ws.values.data(), ws.values.data() + ws.values.size())
+                              : kNaN;
+    out.step_threshold = std::isnan(spread) ? kNaN : std::max(config.min_step, config.step_over_ground * spread);
+  }
+  const double edge = std::max(std::abs(out.left_step), std::abs(out.right_step));
+  out.found = (out.right_x_mm - out.left_x_mm) >= config.lid_min_width_mm &&
+              out.roughness_mm <= config.lid_roughness_ratio * out.ground_roughness_mm &&
+              edge >= config.lid_step_factor * out.step_threshold;
+  return out;
+}
+
 void refract_section(const CrossSection& apparent, const RutGeometry& geometry, double level_mm, double n,
                      double baseline_mm, double y_mm, CrossSection& out, WaterlineWorkspace& ws) {
   out.x0_mm = apparent.x0_mm;

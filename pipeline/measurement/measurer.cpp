@@ -324,9 +324,10 @@ double bin_brightness(const cv::Mat& xyz, const cv::Mat& left, int first, const 
 
 }  // namespace
 
-// Standing water (rut/waterline.hpp): with a waterline on both walls, a profile that stops at it (a lid,
-// opaque water) hides the bottom and is refused; one that goes on below it is the bottom seen through
-// the water, measured again on the section corrected for refraction and published flagged Water, its
+// Standing water (rut/waterline.hpp): a level span at the bottom as smooth as a water surface and lit
+// unlike a wall beside it is a floating lid, refused first; with a waterline on both walls, a profile
+// that stops at it (a lid, opaque water) hides the bottom and is refused; one that goes on below it is the bottom seen
+// through the water, measured again on the section corrected for refraction and published flagged Water, its
 // uncertainty widened by the refraction model's (the index, and the waterline's level).
 void StereoMeasurer::read_through_water(FrameWork& w, RutWorkspace& workspace, const cv::Mat& measured,
                                         int first) const {
@@ -334,6 +335,16 @@ void StereoMeasurer::read_through_water(FrameWork& w, RutWorkspace& workspace, c
   const WaterlineConfig& c = config_.water;
   if (!c.enabled || !depth_found(m.status) || !workspace.geometry.has_rut || !workspace.geometry.has_line) return;
   const double y_mm = bin_brightness(measured, w.left_strip, first, w.section, w.bin_brightness, w.bin_pixels);
+  const LevelSpan lid = find_level_span(w.section, w.bin_brightness, workspace.geometry, c, w.water);
+  if (lid.found) {
+    m.conditions |= kConditionWater;
+    workspace.geometry.has_water = true;
+    workspace.geometry.water_level_mm = lid.level_mm;
+    workspace.geometry.waterline_left_x_mm = lid.left_x_mm;
+    workspace.geometry.waterline_right_x_mm = lid.right_x_mm;
+    m.status = RutStatus::BottomNotSeen;
+    return;
+  }
   const Waterline line = find_waterline(w.section, w.bin_brightness, workspace.geometry, c, w.water);
   if (!line.found) return;
   const auto mark = [&](RutGeometry& g) {

@@ -17,6 +17,10 @@ using namespace test;
 
 constexpr double kN = 1.333;
 
+bool depth_found_for_test(RutStatus status) {
+  return status == RutStatus::Ok || status == RutStatus::Uncertain || status == RutStatus::Vegetation;
+}
+
 struct Scene {
   RutShape shape;
   View view;
@@ -99,6 +103,75 @@ TEST(Waterline, NotFoundWhereTheSoilVariesAsMuch) {
   EXPECT_FALSE(find_waterline(s.section, s.brightness(25.0, 0.8, 0.35), s.ws.geometry, WaterlineConfig{}, ws).found);
   // No step at all.
   EXPECT_FALSE(find_waterline(s.section, s.brightness(25.0, 1.0, 0.05), s.ws.geometry, WaterlineConfig{}, ws).found);
+}
+
+// A floating lid at `level` below the ground: the section stops there (a flat, level span as smooth as
+// the matcher's noise), of uniform brightness, `lid_left` / `lid_right` times the soil's on each half
+// of the scene (the soil on one side in shade, say).
+struct LidScene {
+  Scene base;
+  CrossSection section;
+  RutWorkspace ws;
+  RutMeasurement m;
+  std::vector<double> brightness;
+  LidScene(double level, double lid_left, double lid_right, double lid_noise = 0.0) {
+    std::mt19937 rng(11);
+    std::normal_distribution<double> noise(0.0, 1.0);
+    section = base.section;
+    brightness = base.brightness(level, 1.0, 0.05);
+    for (std::size_t i = 0; i < section.z_mm.size(); ++i) {
+      const double x = section.x0_mm + section.dx_mm * double(i);
+      if (z_at_x(base.shape, base.view, x) - base.view.ground_z <= level) {
+        brightness[i] /= x < 0 ? lid_left : lid_right;
+        continue;
+      }
+      section.z_mm[i] = base.view.ground_z + level + 0.05 * noise(rng) + lid_noise * noise(rng);
+    }
+    m = extract_rut(section, RutConfig{}, ws);
+  }
+};
+
+TEST(WaterlineLid, FoundWithAStepOnOneWallOnly) {  // foam on snow: as bright as the snow on one wall
+  LidScene s(25.0, 1.0, 1.5);
+  ASSERT_TRUE(depth_found_for_test(s.m.status));
+  WaterlineWorkspace ws;
+  // The pair of steps find_waterline needs is not there...
+  EXPECT_FALSE(find_waterline(s.section, s.brightness, s.ws.geometry, WaterlineConfig{}, ws).found);
+  // ...the level span lit unlike one wall is.
+  const LevelSpan lid = find_level_span(s.section, s.brightness, s.ws.geometry, WaterlineConfig{}, ws);
+  ASSERT_TRUE(lid.found);
+  EXPECT_NEAR(lid.level_mm, 25.0, 0.2);
+  EXPECT_NEAR(lid.left_step, 0.0, 0.1);
+  EXPECT_NEAR(lid.right_step, std::log(1.5), 0.15);
+  EXPECT_NEAR(lid.tilt, 0.0, 0.01);
+  // The lid spans the rut where the truth lies deeper than the level: about 2 x 68.7 mm wide here.
+  const double half = 50.0 + 50.0 * std::acos(2.0 * 25.0 / 40.0 - 1.0) / kPi;
+  EXPECT_NEAR(lid.right_x_mm - lid.left_x_mm, 2.0 * half, 4.0);
+  // A darker lid (wet litter) the same.
+  EXPECT_TRUE(find_level_span(LidScene(25.0, 0.6, 1.0).section, LidScene(25.0, 0.6, 1.0).brightness,
+                              LidScene(25.0, 0.6, 1.0).ws.geometry, WaterlineConfig{}, ws)
+                  .found);
+}
+
+TEST(WaterlineLid, NotFoundOnARutBottomLitLikeItsWalls) {
+  Scene s;  // the rut's own flat bottom, level and smooth, soil brightness throughout
+  WaterlineWorkspace ws;
+  const LevelSpan span =
+      find_level_span(s.section, s.brightness(25.0, 1.0, 0.05), s.ws.geometry, WaterlineConfig{}, ws);
+  EXPECT_FALSE(span.found);
+  EXPECT_NEAR(span.level_mm, 40.0, 0.3);  // the span delimited is the bottom
+  EXPECT_LT(std::max(std::abs(span.left_step), std::abs(span.right_step)), span.step_threshold);
+}
+
+TEST(WaterlineLid, NotFoundOnABottomRougherThanTheGround) {  // compacted soil lit unlike the walls
+  LidScene s(25.0, 1.0, 1.5, 0.2);
+  WaterlineWorkspace ws;
+  const LevelSpan span = find_level_span(s.section, s.brightness, s.ws.geometry, WaterlineConfig{}, ws);
+  EXPECT_GT(span.roughness_mm, 1.5 * span.ground_roughness_mm);
+  EXPECT_FALSE(span.found);
+  // The same with the lid's smoothness found.
+  LidScene smooth(25.0, 1.0, 1.5, 0.0);
+  EXPECT_TRUE(find_level_span(smooth.section, smooth.brightness, smooth.ws.geometry, WaterlineConfig{}, ws).found);
 }
 
 // Forward model: the point of the X-Z plane where a camera at (cx, 0) sees the bottom point p through a

@@ -41,6 +41,38 @@ struct WaterlineConfig {
   // The bottom is seen through the water when the profile reaches deeper than the waterline by more
   // than this (else a lid or opaque water: the bottom not seen), mm.
   double min_seen_below_mm = 1.0;
+
+  // A floating lid (foam, leaves, litter on the water) where no pair of steps marks the waterline
+  // (foam on snow is as bright as the snow on one wall): the profile's deepest span is level, no
+  // rougher than the ground outside the rut at the matcher's precision, and its brightness steps
+  // against the wall beyond it on at least one side by lid_step_factor times the threshold above (one
+  // step is weaker evidence than a pair at one height: a wall turned from the light steps too; in
+  // rendered clean ruts up to 1.1 times the threshold, against 1.5-2.6 for litter and leaves). The span is the run of
+  // bins about the deepest point within lid_tolerance_mm of its depth (or 3 times the ground's
+  // bin-to-bin scatter, if more), so it is level with the ground line within that over its width; it
+  // must be at least lid_min_width_mm wide and scatter at most lid_roughness_ratio times the ground's. A rut's own
+  // bottom is soil as rough as the ground and lit like its walls where it meets them (its surface turns
+  // smoothly there); a water surface cuts the walls wherever it stands. Where its walls' slopes change
+  // at the waterline the matching window rounds the corner off (a few millimetres), as it does a rut
+  // bottom's, so the corner alone tells neither apart.
+  bool lid_check = true;
+  double lid_tolerance_mm = 0.5;
+  double lid_min_width_mm = 10.0;
+  double lid_roughness_ratio = 1.5;
+  double lid_step_factor = 1.5;
+};
+
+// A level flat span at the bottom of the profile, lit unlike a wall beside it (WaterlineConfig::lid_check).
+struct LevelSpan {
+  bool found = false;      // all the tests passed
+  double level_mm = 0.0;   // the span's mean depth below the ground line, mm
+  double left_x_mm = 0.0;  // its ends
+  double right_x_mm = 0.0;
+  double tilt = 0.0;                         // its slope against the ground line
+  double roughness_mm = 0.0;                 // its bin-to-bin scatter (robust sigma)
+  double ground_roughness_mm = 0.0;          // the same over the ground outside the rut
+  double left_step = 0.0, right_step = 0.0;  // log brightness on the span minus on the wall beyond
+  double step_threshold = 0.0;               // what a step must reach (find_waterline's)
 };
 
 struct Waterline {
@@ -64,6 +96,12 @@ struct WaterlineWorkspace {
 // else nothing is found). Looks for one waterline as described above.
 Waterline find_waterline(const CrossSection& section, const std::vector<double>& brightness,
                          const RutGeometry& geometry, const WaterlineConfig& config, WaterlineWorkspace& ws);
+
+// Looks for a floating lid as described at WaterlineConfig::lid_check, on the section extract_rut
+// measured (geometry: has_line and has_rut needed). The span's figures are filled whenever a span was
+// delimited, `found` only when every test passed.
+LevelSpan find_level_span(const CrossSection& section, const std::vector<double>& brightness,
+                          const RutGeometry& geometry, const WaterlineConfig& config, WaterlineWorkspace& ws);
 
 // The section as it would be without the water: every bin deeper than the waterline is the apparent
 // point stereo triangulated from two rays bent at the surface; each of the two rays (from the left
