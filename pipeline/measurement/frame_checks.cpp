@@ -335,14 +335,21 @@ void check_frame(const cv::Mat& left, const cv::Mat& right, const cv::Mat& dispa
       m.obstructed_left = double(left_blocked) / compared;
       m.obstructed_right = double(right_blocked) / compared;
     }
-    // A camera that sees no texture anywhere while the other does is covered whole.
+    // A camera that sees no texture anywhere while the other does is covered whole, unless DIC matched
+    // most of the strip: then both saw the same texture, only a faint one (snow under read noise).
+    long matched_pixels = 0, sampled_pixels = 0;
+    for (int b = 0; b < blocks; ++b) {
+      matched_pixels += s.matched[static_cast<std::size_t>(b)];
+      sampled_pixels += s.sampled[static_cast<std::size_t>(b)];
+    }
+    const bool mostly_matched = 2 * matched_pixels >= sampled_pixels;
     const auto flat_everywhere = [&](int k) {
       int flat = 0;
       for (double t : s.texture[static_cast<std::size_t>(k)]) flat += t < c.min_texture;
       return flat >= 0.9 * double(s.texture[static_cast<std::size_t>(k)].size());
     };
-    if (flat_everywhere(0) && !flat_everywhere(1)) m.obstructed_left = 1.0;
-    if (flat_everywhere(1) && !flat_everywhere(0)) m.obstructed_right = 1.0;
+    if (!mostly_matched && flat_everywhere(0) && !flat_everywhere(1)) m.obstructed_left = 1.0;
+    if (!mostly_matched && flat_everywhere(1) && !flat_everywhere(0)) m.obstructed_right = 1.0;
     if (m.obstructed_left >= c.obstruction_min_fraction) m.conditions |= kConditionLeftObstructed;
     if (m.obstructed_right >= c.obstruction_min_fraction) m.conditions |= kConditionRightObstructed;
 
