@@ -356,7 +356,7 @@ void StereoMeasurer::read_through_water(FrameWork& w, RutWorkspace& workspace, c
   m.conditions |= kConditionWater;
   const double seen_below = m.depth_mm - line.level_mm;
   const double u = std::isfinite(m.depth_uncertainty_mm) ? m.depth_uncertainty_mm : 0.0;
-  if (seen_below < std::max(c.min_seen_below_mm, 2.0 * u)) {
+  if (seen_below < std::max(c.min_seen_below_mm, 2.0 * std::hypot(u, line.level_u_mm))) {
     mark(workspace.geometry);
     m.status = RutStatus::BottomNotSeen;
     return;

@@ -39,7 +39,9 @@ struct WaterlineConfig {
   // Steps closer than this below the ground line are the rut's rim (shading at the crest), not water.
   double min_level_mm = 2.0;
   // The bottom is seen through the water when the profile reaches deeper than the waterline by more
-  // than this (else a lid or opaque water: the bottom not seen), mm.
+  // than this, and by more than twice the combined uncertainty of the depth and of the waterline's level
+  // (else a lid or opaque water: the bottom not seen; a leaf lid 1.3 mm below a waterline located to a
+  // few millimetres passed for 1.3 mm of water seen through), mm.
   double min_seen_below_mm = 1.0;
 
   // A floating lid (foam, leaves, litter on the water) where no pair of steps marks the waterline
