@@ -105,6 +105,29 @@ StripStats block_stats(const cv::Mat& strip, int row_begin, int row_end, int blo
   return out;
 }
 
+// Prefix sums over columns of one strip, over every second row of [row_begin, row_end) (the rows
+// block_stats samples): sum[x] of the grey levels and grad2[x] of the squared horizontal differences of
+// columns [0, x).
+void column_prefix_sums(const cv::Mat& strip, int row_begin, int row_end, std::vector<double>& sum,
+                        std::vector<double>& grad2) {
+  sum.assign(static_cast<std::size_t>(strip.cols) + 1, 0.0);
+  grad2.assign(static_cast<std::size_t>(strip.cols) + 1, 0.0);
+  for (int y = row_begin; y < row_end; y += 2) {
+    const std::uint8_t* p = strip.ptr<std::uint8_t>(y);
+    for (int x = 0; x < strip.cols; ++x) {
+      sum[static_cast<std::size_t>(x) + 1] += p[x];
+      if (x + 1 < strip.cols) {
+        const int d = int(p[x + 1]) - int(p[x]);
+        grad2[static_cast<std::size_t>(x) + 1] += d * d;
+      }
+    }
+  }
+  for (std::size_t x = 1; x < sum.size(); ++x) {
+    sum[x] += sum[x - 1];
+    grad2[x] += grad2[x - 1];
+  }
+}
+
 double median_of(std::vector<float>& values) {
   if (values.empty()) return kNaN;
   const auto mid = values.begin() + static_cast<long>(values.size() / 2);
@@ -237,6 +260,7 @@ void check_frame(const cv::Mat& left, const cv::Mat& right, const cv::Mat& dispa
   if (!c.enabled || left.empty() || left.size() != right.size() || left.type() != CV_8UC1 || right.type() != CV_8UC1 ||
       row_end <= row_begin || left.cols < 2 * c.block_px)
     return;
+  bool bottom_hidden = false;  // this check's own water finding (a waterline read through is not one)
   try {
     const cv::Mat* strips[2] = {&left, &right};
     StripStats stats[2];
@@ -266,14 +290,38 @@ void check_frame(const cv::Mat& left, const cv::Mat& right, const cv::Mat& dispa
                                                          : kNaN;
     const int shift = std::isfinite(d0) ? static_cast<int>(std::lround(d0 / c.block_px)) : 0;
     const int blocks = static_cast<int>(s.texture[0].size());
+    s.matched.assign(static_cast<std::size_t>(blocks), 0);
+    s.sampled.assign(static_cast<std::size_t>(blocks), 0);
+    for (int y = row_begin; y < row_end; y += 4) {
+      const float* d = disparity.ptr<float>(y);
+      for (int x = 0; x < blocks * c.block_px; ++x) {
+        s.matched[static_cast<std::size_t>(x / c.block_px)] += std::isfinite(d[x]) ? 1 : 0;
+        s.sampled[static_cast<std::size_t>(x / c.block_px)] += 1;
+      }
+    }
+    // The right strip's brightness and texture over any window of columns: prefix sums of its columns
+    // over the rows block_stats sampled.
+    column_prefix_sums(right, row_begin, row_end, s.column_sum, s.column_grad2);
+    const double window_pixels = double(std::max(1, s.count[1].empty() ? 0 : s.count[1][0]));
     int compared = 0, left_blocked = 0, right_blocked = 0;
     for (int b = 0; b < blocks; ++b) {
-      const int rb = b - shift;
-      if (rb < 0 || rb >= blocks) continue;
+      // The ground this block sees lies at its own disparity in the right strip (a scene in depth moves
+      // each part by its own; the strip's median puts a near object's block beside other ground), at
+      // the strip's where the block matched nothing (an obstructed view matches nothing).
+      const int x0 = b * c.block_px;
+      double d = median_disparity(disparity, row_begin, row_end, x0, x0 + c.block_px, s.values);
+      if (!std::isfinite(d)) d = std::isfinite(d0) ? d0 : 0.0;
+      const int rx0 = x0 - static_cast<int>(std::lround(d));
+      if (rx0 < 0 || rx0 + c.block_px > right.cols) continue;
       ++compared;
-      const double tl = s.texture[0][static_cast<std::size_t>(b)], tr = s.texture[1][static_cast<std::size_t>(rb)];
+      // A block that matched saw the same texture through both lenses: neither is obstructed there
+      // (what differs then is the scene: a surface lit or seen differently from the two viewpoints).
+      if (2 * s.matched[static_cast<std::size_t>(b)] >= s.sampled[static_cast<std::size_t>(b)]) continue;
+      const auto at = [](const std::vector<double>& v, int i) { return v[static_cast<std::size_t>(i)]; };
+      const double tl = s.texture[0][static_cast<std::size_t>(b)],
+                   tr = std::sqrt((at(s.column_grad2, rx0 + c.block_px) - at(s.column_grad2, rx0)) / window_pixels);
       const double bl = s.brightness[0][static_cast<std::size_t>(b)],
-                   br = s.brightness[1][static_cast<std::size_t>(rb)];
+                   br = (at(s.column_sum, rx0 + c.block_px) - at(s.column_sum, rx0)) / window_pixels;
       // The texture test only for the dimmer view: the other camera's own blob edge (a steep dark-to-lit
       // step inside its block) must not make this camera's ground look flat by comparison.
       const auto blocked = [&](double t_self, double t_other, double b_self, double b_other) {
@@ -287,14 +335,21 @@ void check_frame(const cv::Mat& left, const cv::Mat& right, const cv::Mat& dispa
       m.obstructed_left = double(left_blocked) / compared;
       m.obstructed_right = double(right_blocked) / compared;
     }
-    // A camera that sees no texture anywhere while the other does is covered whole.
+    // A camera that sees no texture anywhere while the other does is covered whole, unless DIC matched
+    // most of the strip: then both saw the same texture, only a faint one (snow under read noise).
+    long matched_pixels = 0, sampled_pixels = 0;
+    for (int b = 0; b < blocks; ++b) {
+      matched_pixels += s.matched[static_cast<std::size_t>(b)];
+      sampled_pixels += s.sampled[static_cast<std::size_t>(b)];
+    }
+    const bool mostly_matched = 2 * matched_pixels >= sampled_pixels;
     const auto flat_everywhere = [&](int k) {
       int flat = 0;
       for (double t : s.texture[static_cast<std::size_t>(k)]) flat += t < c.min_texture;
       return flat >= 0.9 * double(s.texture[static_cast<std::size_t>(k)].size());
     };
-    if (flat_everywhere(0) && !flat_everywhere(1)) m.obstructed_left = 1.0;
-    if (flat_everywhere(1) && !flat_everywhere(0)) m.obstructed_right = 1.0;
+    if (!mostly_matched && flat_everywhere(0) && !flat_everywhere(1)) m.obstructed_left = 1.0;
+    if (!mostly_matched && flat_everywhere(1) && !flat_everywhere(0)) m.obstructed_right = 1.0;
     if (m.obstructed_left >= c.obstruction_min_fraction) m.conditions |= kConditionLeftObstructed;
     if (m.obstructed_right >= c.obstruction_min_fraction) m.conditions |= kConditionRightObstructed;
 
@@ -308,15 +363,6 @@ void check_frame(const cv::Mat& left, const cv::Mat& right, const cv::Mat& dispa
     // Vegetation: textured in both cameras, yet unmatched; judged outside the rut opening, where the
     // tyre has not flattened it (inside, DIC also loses steep rut walls, foreshortened differently in
     // the two views, which would pass for blades on a ground with few textured blocks, as snow).
-    s.matched.assign(static_cast<std::size_t>(blocks), 0);
-    s.sampled.assign(static_cast<std::size_t>(blocks), 0);
-    for (int y = row_begin; y < row_end; y += 4) {
-      const float* d = disparity.ptr<float>(y);
-      for (int x = 0; x < blocks * c.block_px; ++x) {
-        s.matched[static_cast<std::size_t>(x / c.block_px)] += std::isfinite(d[x]) ? 1 : 0;
-        s.sampled[static_cast<std::size_t>(x / c.block_px)] += 1;
-      }
-    }
     int textured = 0, unmatched = 0;
     for (int b = 0; b < blocks; ++b) {
       const int rb = b - shift;
@@ -350,8 +396,10 @@ void check_frame(const cv::Mat& left, const cv::Mat& right, const cv::Mat& dispa
         const double run_mm = unseen_flat_run_px(s, c.block_px, u0, u1, shift, c.flat_ratio * ground) * z / f;
         // The patch hides the bottom only where the profile's walls still descend into it; flanked by
         // bottom seen level on both sides (a smooth patch of mud, tread marks), the bottom is measured.
-        if (run_mm >= c.flat_min_width_mm && rut.unseen_depth_mm > c.flat_min_unseen_mm)
+        if (run_mm >= c.flat_min_width_mm && rut.unseen_depth_mm > c.flat_min_unseen_mm) {
           m.conditions |= kConditionWater;
+          bottom_hidden = true;
+        }
       }
     }
   } catch (...) {
@@ -368,7 +416,7 @@ void check_frame(const cv::Mat& left, const cv::Mat& right, const cv::Mat& dispa
     m.status = RutStatus::LensObstructed;
   } else if (m.conditions & kConditionCalibrationDrift) {
     m.status = RutStatus::CalibrationDrift;
-  } else if ((m.conditions & kConditionWater) && (depth_found(m.status) || m.status == RutStatus::NoRut)) {
+  } else if (bottom_hidden && (depth_found(m.status) || m.status == RutStatus::NoRut)) {
     m.status = RutStatus::BottomNotSeen;
   } else if ((m.conditions & kConditionVegetation) && m.status != RutStatus::RutAtEdge) {
     m.status = RutStatus::Vegetation;

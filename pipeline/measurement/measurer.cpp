@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdint>
+#include <limits>
 #include <stdexcept>
 #include <string>
 
@@ -286,6 +288,108 @@ void StereoMeasurer::match_in_band(FrameWork& w, MatchContext& context, bool reu
   }
 }
 
+namespace {
+
+bool depth_found(RutStatus status) {
+  return status == RutStatus::Ok || status == RutStatus::Uncertain || status == RutStatus::Vegetation;
+}
+
+// Mean grey level of the left strip's pixels that reduce_to_cross_section averaged into each bin (the
+// same rule: the nearest bin to the point's X), NaN where none; returns the mean Y of those points, mm.
+double bin_brightness(const cv::Mat& xyz, const cv::Mat& left, int first, const CrossSection& section,
+                      std::vector<double>& brightness, std::vector<int>& pixels) {
+  const std::size_t bins = section.z_mm.size();
+  brightness.assign(bins, 0.0);
+  pixels.assign(bins, 0);
+  double y_sum = 0.0;
+  long points = 0;
+  for (int r = 0; r < xyz.rows; ++r) {
+    const cv::Vec3f* p = xyz.ptr<cv::Vec3f>(r);
+    const std::uint8_t* g = left.ptr<std::uint8_t>(first + r);
+    for (int u = 0; u < xyz.cols && u < left.cols; ++u) {
+      const cv::Vec3f& q = p[u];
+      if (!std::isfinite(q[0]) || !std::isfinite(q[1]) || !(q[2] > 0.0f)) continue;
+      const long b = std::lround((q[0] - section.x0_mm) / section.dx_mm);
+      if (b < 0 || b >= static_cast<long>(bins)) continue;
+      brightness[static_cast<std::size_t>(b)] += g[u];
+      ++pixels[static_cast<std::size_t>(b)];
+      y_sum += q[1];
+      ++points;
+    }
+  }
+  for (std::size_t b = 0; b < bins; ++b)
+    brightness[b] = pixels[b] > 0 ? brightness[b] / pixels[b] : std::numeric_limits<double>::quiet_NaN();
+  return points > 0 ? y_sum / double(points) : 0.0;
+}
+
+}  // namespace
+
+// Standing water (rut/waterline.hpp): a level span at the bottom as smooth as a water surface and lit
+// unlike a wall beside it is a floating lid, refused first; with a waterline on both walls, a profile
+// that stops at it (a lid, opaque water) hides the bottom and is refused; one that goes on below it is the bottom seen
+// through the water, measured again on the section corrected for refraction and published flagged Water, its
+// uncertainty widened by the refraction model's (the index, and the waterline's level).
+void StereoMeasurer::read_through_water(FrameWork& w, RutWorkspace& workspace, const cv::Mat& measured,
+                                        int first) const {
+  RutMeasurement& m = w.measurement;
+  const WaterlineConfig& c = config_.water;
+  if (!c.enabled || !depth_found(m.status) || !workspace.geometry.has_rut || !workspace.geometry.has_line) return;
+  const double y_mm = bin_brightness(measured, w.left_strip, first, w.section, w.bin_brightness, w.bin_pixels);
+  const LevelSpan lid = find_level_span(w.section, w.bin_brightness, workspace.geometry, c, w.water);
+  if (lid.found) {
+    m.conditions |= kConditionWater;
+    workspace.geometry.has_water = true;
+    workspace.geometry.water_level_mm = lid.level_mm;
+    workspace.geometry.waterline_left_x_mm = lid.left_x_mm;
+    workspace.geometry.waterline_right_x_mm = lid.right_x_mm;
+    m.status = RutStatus::BottomNotSeen;
+    return;
+  }
+  const Waterline line = find_waterline(w.section, w.bin_brightness, workspace.geometry, c, w.water);
+  if (!line.found) return;
+  const auto mark = [&](RutGeometry& g) {
+    g.has_water = true;
+    g.water_level_mm = line.level_mm;
+    g.waterline_left_x_mm = line.left_x_mm;
+    g.waterline_right_x_mm = line.right_x_mm;
+  };
+  m.conditions |= kConditionWater;
+  const double seen_below = m.depth_mm - line.level_mm;
+  const double u = std::isfinite(m.depth_uncertainty_mm) ? m.depth_uncertainty_mm : 0.0;
+  if (seen_below < std::max(c.min_seen_below_mm, 2.0 * std::hypot(u, line.level_u_mm))) {
+    mark(workspace.geometry);
+    m.status = RutStatus::BottomNotSeen;
+    return;
+  }
+  const RutGeometry apparent = workspace.geometry;
+  refract_section(w.section, apparent, line.level_mm, c.refractive_index, geometry_.baseline_mm(), y_mm, w.refracted,
+                  w.water);
+  RutMeasurement r = extract_rut(w.refracted, config_.rut, workspace);
+  if (!depth_found(r.status) || !workspace.geometry.has_rut) {
+    workspace.geometry = apparent;
+    mark(workspace.geometry);
+    m.status = RutStatus::BottomNotSeen;
+    return;
+  }
+  // depth ~ level + n (apparent depth - level): the index's share and the level's, (1 - n) per mm.
+  const double u_model = std::hypot(seen_below * c.refractive_index_u, (c.refractive_index - 1.0) * line.level_u_mm);
+  r.depth_uncertainty_mm = std::hypot(r.depth_uncertainty_mm, u_model);
+  r.conditions |= m.conditions;
+  const double limit = config_.rut.max_depth_uncertainty_mm;
+  if (r.status == RutStatus::Ok || r.status == RutStatus::Uncertain) {
+    r.quality = limit > 0.0 ? std::clamp(1.0 - r.depth_uncertainty_mm / (2.0 * limit), 0.0, 1.0) : 0.0;
+    if (r.depth_uncertainty_mm > limit) {
+      r.status = RutStatus::Uncertain;
+      r.conditions |= kConditionUncertain;
+    }
+  }
+  r.vertical_disparity_px = m.vertical_disparity_px;
+  m = r;
+  mark(workspace.geometry);
+  workspace.geometry.refracted = true;
+  std::swap(w.section, w.refracted);
+}
+
 void StereoMeasurer::extract(FrameWork& w, RutWorkspace& workspace) const {
   auto t0 = Clock::now();
   geometry_.reproject(w.disparity, w.xyz);
@@ -297,6 +401,7 @@ void StereoMeasurer::extract(FrameWork& w, RutWorkspace& workspace) const {
   t0 = Clock::now();
   reduce_to_cross_section(measured, config_.rut, w.section);
   w.measurement = extract_rut(w.section, config_.rut, workspace);
+  read_through_water(w, workspace, measured, first);
   check_frame(w.left_strip, w.right_strip, w.disparity, first, first + strip_.rows, geometry_, workspace.geometry,
               w.diag.band, config_.conditions, w.checks, w.measurement);
   w.geometry = workspace.geometry;

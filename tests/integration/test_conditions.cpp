@@ -107,6 +107,13 @@ const Case kCases[] = {
     {"water_d50_l10_snow_w140", "--depth 50 --water-level 10 --texture snow --width 140 --bottom-width 50 --seed 104",
      6, "Water", 0.9, false},
     {"water_d45_l15_sand_dim", "--depth 45 --water-level 15 --exposure 0.4 --seed 105", 6, "Water", 0.9, false},
+    // Litter floating on 21 mm of water in a 51 mm sand rut: a flat lid whose edge is lit unlike one
+    // wall only (no pair of waterline steps), read as the bottom 21 mm too shallow before it was refused.
+    {"litter_lid_d51_l21_sand",
+     "--texture sand --depth 50.8 --width 191 --bottom-width 90 --pile-left 6.0 --pile-right 13.0 --baseline 40 "
+     "--height 322 --roll -1.8 --seed 1004 --water-level 21.3 --debris 0.75 --debris-kind litter "
+     "--water-attenuation 0.012",
+     4, "Water", 0.75, true},
     // Opaque splash on one lens, 10-50 % of the strip, and a fully covered lens.
     {"splash10_left_sand", "--depth 50 --splash 0.1 --splash-camera left --splash-centre 0.45 --seed 41", 6,
      "LeftLensObstructed", 0.0, true},

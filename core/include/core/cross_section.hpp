@@ -39,6 +39,13 @@ struct RutGeometry {
   // How much deeper than the depth the rut could be where it was not seen (gaps inside the opening
   // whose walls still descend into them; see extract_rut's coverage term), mm; valid with has_rut.
   double unseen_depth_mm = 0.0;
+  // Standing water found in the rut (a level waterline on both walls): the surface's depth below the
+  // ground line and the X of the two waterlines; refracted: the depth was read through the water, on
+  // the section corrected for refraction at the surface (the section a sink sees is that one).
+  bool has_water = false;
+  double water_level_mm = 0.0;
+  double waterline_left_x_mm = 0.0, waterline_right_x_mm = 0.0;
+  bool refracted = false;
 };
 
 }  // namespace rutd

@@ -26,9 +26,11 @@ struct ConditionConfig {
   // Column blocks (px of the rectified strip) in which the two cameras' views of the same ground are
   // compared. A block's texture is its RMS horizontal intensity gradient, grey levels per pixel (8-bit).
   int block_px = 16;
-  // Lens obstruction. A camera is obstructed in a block when, looking at the same ground as the other
-  // camera (shifted by the strip's median disparity), it sees less than obstruction_ratio of the other's
-  // mean brightness (an opaque blob is dark: it is lit from behind the lens), or less than
+  // Lens obstruction. Only a left block that DIC did not match (under half of its pixels) can be
+  // obstructed: one matched saw the same texture through both lenses. A camera is obstructed in such a
+  // block when, looking at the same ground as the other camera (the right strip's window at the
+  // block's own median disparity, to the pixel; the strip's where it has none), it sees less than obstruction_ratio of
+  // the other's mean brightness (an opaque blob is dark: it is lit from behind the lens), or less than
   // obstruction_ratio of its texture while it is not the brighter one and the other sees at least
   // min_texture (a blob is out of focus: flat; the edge of a blob in the other camera is a steep step,
   // not texture this camera misses). Flagged when at least obstruction_min_fraction of the compared blocks are
@@ -98,6 +100,7 @@ struct FrameCheckScratch {
   std::vector<double> sum[2], grad2[2];
   std::vector<int> count[2];
   std::vector<double> texture[2], brightness[2];
+  std::vector<double> column_sum, column_grad2;  // the right strip's, prefix sums over columns
   std::vector<int> matched, sampled;
   std::vector<float> values;
   cv::Mat result;

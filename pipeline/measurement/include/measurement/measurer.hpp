@@ -23,6 +23,7 @@
 #include "measurement/frame_checks.hpp"
 #include "refinement/dic_refine.hpp"
 #include "rut/extract.hpp"
+#include "rut/waterline.hpp"
 
 namespace rutd {
 
@@ -70,6 +71,9 @@ struct MeasurerConfig {
   static constexpr double kMinReusedShare = 0.97;
   RutConfig rut;
   ConditionConfig conditions;
+  // Standing water: its waterline found on the cross-section and the brightness of the left strip, the
+  // bottom read through clear water by refraction, a lid or opaque water refused (rut/waterline.hpp).
+  WaterlineConfig water;
 };
 
 // Figures of one frame's measurement, for logs and benchmarks. Milliseconds of thread time per stage.
@@ -103,6 +107,12 @@ struct FrameWork {
   RutMeasurement measurement;
   MeasurementDiagnostics diag;
   FrameCheckScratch checks;
+  // Standing water (StereoMeasurer::extract): the left strip's brightness per cross-section bin, the
+  // section as read through the water, and their scratch.
+  std::vector<double> bin_brightness;
+  std::vector<int> bin_pixels;
+  CrossSection refracted;
+  WaterlineWorkspace water;
 };
 
 // What the sinks see of a frame (core/measurement_sink.hpp): its figures and `health`, and, once
@@ -160,6 +170,7 @@ class StereoMeasurer {
   // where it can (8-bit frames, a GPU engine), else on the CPU from the strips (rectified first if needed).
   DisparityBand estimate_band(FrameWork& w, MatchContext& context) const;
   DicConfig strip_dic_config() const;
+  void read_through_water(FrameWork& w, RutWorkspace& workspace, const cv::Mat& measured, int first) const;
   // The engine is to rectify this frame on its device (MeasurerConfig::rectify_on_device).
   bool device_rectifies(const StereoFrame& frame) const;
 

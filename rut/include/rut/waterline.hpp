@@ -1,0 +1,118 @@
+#pragma once
+// Standing water in the rut, read through its surface (README, "Conditions rutd flags"). Pure functions on
+// the cross-section, like extract.hpp: no threads, no I/O, no allocation once the vectors have grown.
+//
+// A level water surface meets both walls of the rut at one height: the waterline. Below it the soil is
+// wet (darker: water fills its pores), seen through the surface's reflection and the water's body
+// colour, or hidden by a floating lid of foam or leaves (brighter or darker, and textured otherwise): in
+// every case the brightness of the cross-section steps at the waterline, on both walls, by more than
+// the soil's own texture varies, and in the same sense on both. find_waterline looks for that pair of
+// steps. Where the bottom shows through the water (clear water), stereo triangulates the two cameras'
+// rays bent at the surface as if they were straight, so the submerged part appears about 1/n as deep
+// (two-media photogrammetry); refract_section undoes that ray by ray by Snell's law at the fitted plane.
+// Where the profile stops at the waterline (a lid, turbid water matched on its surface) the bottom is
+// not seen and no depth may be published.
+#include <vector>
+
+#include "core/cross_section.hpp"
+
+namespace rutd {
+
+struct WaterlineConfig {
+  bool enabled = true;
+  double refractive_index = 1.333;  // fresh water, visible light, 20 degC
+  // Standard uncertainty of the index over the water a rut holds (temperature 0-30 degC: 0.0015;
+  // dissolved and suspended matter up to a few grams per litre: about 0.002), doubled for the
+  // flat-surface model itself (a meniscus, a slight ripple).
+  double refractive_index_u = 0.005;
+  // Brightness steps are the log ratio of the mean brightness of step_window_mm of the section on each
+  // side of a bin. A step must exceed min_step (log; 0.22 = 20 % darker, the least that wetting darkens
+  // soil) and step_over_ground times the robust spread of the same statistic over the ground outside
+  // the rut (the soil's own texture at that scale).
+  double step_window_mm = 8.0;
+  double min_step = 0.22;
+  double step_over_ground = 4.0;
+  // The two walls' steps are one waterline when their heights below the ground line agree within
+  // level_tolerance_mm plus what two bins of lateral uncertainty each (the capillary fringe above a
+  // waterline darkens the soil gradually) give on the walls' slopes.
+  double level_tolerance_mm = 1.0;
+  // Steps closer than this below the ground line are the rut's rim (shading at the crest), not water.
+  double min_level_mm = 2.0;
+  // The bottom is seen through the water when the profile reaches deeper than the waterline by more
+  // than this, and by more than twice the combined uncertainty of the depth and of the waterline's level
+  // (else a lid or opaque water: the bottom not seen; a leaf lid 1.3 mm below a waterline located to a
+  // few millimetres passed for 1.3 mm of water seen through), mm.
+  double min_seen_below_mm = 1.0;
+
+  // A floating lid (foam, leaves, litter on the water) where no pair of steps marks the waterline
+  // (foam on snow is as bright as the snow on one wall): the profile's deepest span is level, no
+  // rougher than the ground outside the rut at the matcher's precision, and its brightness steps
+  // against the wall beyond it on at least one side by lid_step_factor times the threshold above (one
+  // step is weaker evidence than a pair at one height: a wall turned from the light steps too; in
+  // rendered clean ruts up to 1.1 times the threshold, against 1.5-2.6 for litter and leaves). The span is the run of
+  // bins about the deepest point within lid_tolerance_mm of its depth (or 3 times the ground's
+  // bin-to-bin scatter, if more), so it is level with the ground line within that over its width; it
+  // must be at least lid_min_width_mm wide and scatter at most lid_roughness_ratio times the ground's. A rut's own
+  // bottom is soil as rough as the ground and lit like its walls where it meets them (its surface turns
+  // smoothly there); a water surface cuts the walls wherever it stands. Where its walls' slopes change
+  // at the waterline the matching window rounds the corner off (a few millimetres), as it does a rut
+  // bottom's, so the corner alone tells neither apart.
+  bool lid_check = true;
+  double lid_tolerance_mm = 0.5;
+  double lid_min_width_mm = 10.0;
+  double lid_roughness_ratio = 1.5;
+  double lid_step_factor = 1.5;
+};
+
+// A level flat span at the bottom of the profile, lit unlike a wall beside it (WaterlineConfig::lid_check).
+struct LevelSpan {
+  bool found = false;      // all the tests passed
+  double level_mm = 0.0;   // the span's mean depth below the ground line, mm
+  double left_x_mm = 0.0;  // its ends
+  double right_x_mm = 0.0;
+  double tilt = 0.0;                         // its slope against the ground line
+  double roughness_mm = 0.0;                 // its bin-to-bin scatter (robust sigma)
+  double ground_roughness_mm = 0.0;          // the same over the ground outside the rut
+  double left_step = 0.0, right_step = 0.0;  // log brightness on the span minus on the wall beyond
+  double step_threshold = 0.0;               // what a step must reach (find_waterline's)
+};
+
+struct Waterline {
+  bool found = false;
+  double level_mm = 0.0;    // depth of the surface below the ground line, perpendicular, mm
+  double level_u_mm = 0.0;  // its standard uncertainty, mm
+  double left_x_mm = 0.0;   // X of the two waterlines on the walls
+  double right_x_mm = 0.0;
+  double left_step = 0.0;  // log brightness ratio (below / above) at each
+  double right_step = 0.0;
+  double ground_spread = 0.0;  // robust spread of the step statistic over the ground
+};
+
+// Scratch reused between frames; contents unspecified.
+struct WaterlineWorkspace {
+  std::vector<double> log_brightness, step, values, x, z;
+};
+
+// section: the cross-section extract_rut measured; brightness: mean grey level of the left image's
+// pixels averaged into each bin (NaN where none); geometry: extract_rut's (has_line and has_rut needed,
+// else nothing is found). Looks for one waterline as described above.
+Waterline find_waterline(const CrossSection& section, const std::vector<double>& brightness,
+                         const RutGeometry& geometry, const WaterlineConfig& config, WaterlineWorkspace& ws);
+
+// Looks for a floating lid as described at WaterlineConfig::lid_check, on the section extract_rut
+// measured (geometry: has_line and has_rut needed). The span's figures are filled whenever a span was
+// delimited, `found` only when every test passed.
+LevelSpan find_level_span(const CrossSection& section, const std::vector<double>& brightness,
+                          const RutGeometry& geometry, const WaterlineConfig& config, WaterlineWorkspace& ws);
+
+// The section as it would be without the water: every bin deeper than the waterline is the apparent
+// point stereo triangulated from two rays bent at the surface; each of the two rays (from the left
+// camera centre, the origin, and the right one at (baseline_mm, 0, 0), at Y = y_mm) is refracted at the
+// surface plane (parallel to the ground line, level_mm below it, normal in the X-Z plane) by Snell's law
+// with `n`, and the point is where the refracted rays pass closest. The corrected points are resampled
+// onto the section's grid (linear between neighbours); bins above the waterline are copied. `out` may
+// not alias `apparent`.
+void refract_section(const CrossSection& apparent, const RutGeometry& geometry, double level_mm, double n,
+                     double baseline_mm, double y_mm, CrossSection& out, WaterlineWorkspace& ws);
+
+}  // namespace rutd

@@ -1,0 +1,150 @@
+// check_frame's rules (measurement/frame_checks.hpp) one by one, on constructed strips whose truth is
+// known by construction: both views of one random texture at a known disparity, then one view covered,
+// darkened, clipped or flattened.
+#include <cmath>
+#include <limits>
+#include <random>
+
+#include <gtest/gtest.h>
+#include <opencv2/imgproc.hpp>
+
+#include "measurement/frame_checks.hpp"
+
+namespace rutd {
+namespace {
+
+constexpr int kWidth = 640, kRows = 40, kDisparity = 24;
+
+StereoCalibration ideal_rig() {
+  StereoCalibration c;
+  c.image_size = {kWidth, 480};
+  c.M1 = cv::Matx33d(700, 0, 319.5, 0, 700, 239.5, 0, 0, 1);
+  c.M2 = c.M1;
+  c.D1 = cv::Mat::zeros(1, 5, CV_64F);
+  c.D2 = cv::Mat::zeros(1, 5, CV_64F);
+  c.R = cv::Matx33d::eye();
+  c.T = cv::Vec3d(-60, 0, 0);
+  return c;
+}
+
+struct Strips {
+  cv::Mat left, right, disparity;
+  // A texture of grey `mean` and deviation `deviation` (smoothed noise, as soil seen by a lens), seen by
+  // the right camera kDisparity px to the left; disparity valid everywhere the right view exists.
+  Strips(double mean, double deviation, unsigned seed = 3) {
+    std::mt19937 rng(seed);
+    std::normal_distribution<double> noise(0.0, 1.0);
+    cv::Mat world(kRows, kWidth + kDisparity, CV_64F);
+    for (int y = 0; y < world.rows; ++y)
+      for (int x = 0; x < world.cols; ++x) world.at<double>(y, x) = noise(rng);
+    cv::GaussianBlur(world, world, cv::Size(0, 0), 1.0);
+    cv::Scalar m, sd;
+    cv::meanStdDev(world, m, sd);
+    world = (world - m[0]) * (deviation / sd[0]) + mean;
+    // The right camera sees the point at left column x at x - d: right(x) = world(x + d), left(x) = world(x).
+    world(cv::Rect(0, 0, kWidth, kRows)).convertTo(left, CV_8U);
+    world(cv::Rect(kDisparity, 0, kWidth, kRows)).convertTo(right, CV_8U);
+    disparity = cv::Mat(kRows, kWidth, CV_32F, cv::Scalar(kDisparity));
+    disparity.colRange(0, kDisparity).setTo(std::numeric_limits<float>::quiet_NaN());
+  }
+};
+
+RutMeasurement check(const Strips& s, ConditionConfig config = {}) {
+  const StereoGeometry geometry(ideal_rig(), StripRoi{220, kRows});
+  FrameCheckScratch scratch;
+  RutMeasurement m;
+  m.status = RutStatus::Ok;
+  check_frame(s.left, s.right, s.disparity, 0, kRows, geometry, RutGeometry{}, DisparityBand{0, 64}, config, scratch,
+              m);
+  return m;
+}
+
+constexpr std::uint8_t kLens = kConditionLeftObstructed | kConditionRightObstructed;
+
+TEST(FrameChecks, CleanTexturedPairRaisesNothing) {
+  const RutMeasurement m = check(Strips(120, 25));
+  EXPECT_EQ(m.conditions, 0) << int(m.conditions);
+  EXPECT_EQ(m.status, RutStatus::Ok);
+  EXPECT_NEAR(m.vertical_disparity_px, 0.0, 0.2);
+}
+
+TEST(FrameChecks, FaintTextureMatchedIsNoCoveredLens) {  // snow under read noise, the right view dimmer
+  // Texture a little above min_texture in the left view, the right camera's a little below (a gain 40 %
+  // lower about the same mean): every block flat in one view only, yet DIC matched all of them.
+  Strips s(200, 5.0);
+  cv::Mat right;
+  s.right.convertTo(right, CV_8U, 0.6, 0.4 * 200);
+  s.right = right;
+  const auto flat_share = [](const cv::Mat& v) {
+    int flat = 0, blocks = 0;
+    for (int b = 0; b + 16 <= v.cols; b += 16, ++blocks) {
+      double g2 = 0;
+      for (int y = 0; y < v.rows; y += 2)
+        for (int x = b; x < b + 16; ++x)
+          g2 += std::pow(double(v.at<std::uint8_t>(y, x + 1)) - v.at<std::uint8_t>(y, x), 2);
+      flat += std::sqrt(g2 / (16.0 * v.rows / 2)) < ConditionConfig{}.min_texture;
+    }
+    return double(flat) / blocks;
+  };
+  ASSERT_LT(flat_share(s.left), 0.9);
+  ASSERT_GE(flat_share(s.right), 0.9);
+  const RutMeasurement m = check(s);
+  EXPECT_EQ(m.conditions & kLens, 0) << int(m.conditions);
+  // The same views, nothing matched: one flat view beside a textured one is a covered lens.
+  Strips covered(200, 8);
+  covered.right.setTo(180);
+  covered.disparity.setTo(std::numeric_limits<float>::quiet_NaN());
+  const RutMeasurement c = check(covered);
+  EXPECT_TRUE(c.conditions & kConditionRightObstructed);
+  EXPECT_EQ(c.status, RutStatus::LensObstructed);
+}
+
+TEST(FrameChecks, DarkBlobOnOneLensUnmatchedIsObstruction) {
+  Strips s(120, 25);
+  // A mud blob over columns 300-400 of the right view; DIC matches nothing there (left 324-424).
+  s.right.colRange(300, 400).setTo(8);
+  s.disparity.colRange(300 + kDisparity, 400 + kDisparity).setTo(std::numeric_limits<float>::quiet_NaN());
+  const RutMeasurement m = check(s);
+  EXPECT_TRUE(m.conditions & kConditionRightObstructed);
+  EXPECT_FALSE(m.conditions & kConditionLeftObstructed);
+  EXPECT_GT(m.obstructed_right, 0.1);
+  // Matched all the same (a shadow both cameras see is no blob): no obstruction.
+  Strips shadow(120, 25);
+  shadow.right.colRange(300, 400) *= 0.3;
+  shadow.left.colRange(300 + kDisparity, 400 + kDisparity) *= 0.3;
+  EXPECT_EQ(check(shadow).conditions & kLens, 0);
+}
+
+TEST(FrameChecks, ExposureRules) {
+  const RutMeasurement dark = check(Strips(8, 2));
+  EXPECT_TRUE(dark.conditions & kConditionLowLight);
+  EXPECT_EQ(dark.status, RutStatus::BadExposure);
+  Strips bright(200, 40);
+  bright.left.colRange(0, 200).setTo(255);
+  bright.right.colRange(0, 200).setTo(255);
+  EXPECT_TRUE(check(bright).conditions & kConditionOverexposed);
+  EXPECT_FALSE(check(Strips(200, 20)).conditions & kConditionOverexposed);
+}
+
+TEST(FrameChecks, RowsShiftedAreCalibrationDrift) {
+  Strips s(120, 25);
+  cv::Mat shifted;
+  cv::copyMakeBorder(s.right.rowRange(0, kRows - 2), shifted, 2, 0, 0, 0, cv::BORDER_REPLICATE);
+  s.right = shifted;  // the right view's features two rows lower
+  const RutMeasurement m = check(s);
+  EXPECT_TRUE(m.conditions & kConditionCalibrationDrift);
+  EXPECT_NEAR(m.vertical_disparity_px, 2.0, 0.3);
+  EXPECT_EQ(m.status, RutStatus::CalibrationDrift);
+}
+
+TEST(FrameChecks, TexturedUnmatchedOutsideTheRutIsVegetation) {
+  Strips s(120, 25);
+  for (int b = 4; b < 30; b += 3)
+    s.disparity.colRange(b * 16, b * 16 + 16).setTo(std::numeric_limits<float>::quiet_NaN());
+  const RutMeasurement m = check(s);
+  EXPECT_TRUE(m.conditions & kConditionVegetation);
+  EXPECT_EQ(check(Strips(120, 25)).conditions & kConditionVegetation, 0);
+}
+
+}  // namespace
+}  // namespace rutd
