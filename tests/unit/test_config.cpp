@@ -382,6 +382,8 @@ TEST(Config, TrafficabilityIsReadAndCheckedNamingTheKey) {
   expect_error("trafficability:\n  damage: [{name: x, depth_mm: 100, min_lenght_m: 1}]\n",
                {"trafficability.damage[0].min_lenght_m", "unknown key"});
   expect_error("trafficability:\n  segment_length_m: 0\n", {"trafficability.segment_length_m"});
+}
+
 TEST(ConfigGps, OffByDefaultAndReadWhenGiven) {
   const RutdConfig d = parse_config(default_config_text(), "(embedded default)");
   EXPECT_FALSE(d.gps.enabled);
