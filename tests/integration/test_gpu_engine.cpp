@@ -7,6 +7,7 @@
 #include <fstream>
 #include <regex>
 #include <string>
+#include <vector>
 
 #include <gtest/gtest-spi.h>
 #include <gtest/gtest.h>
@@ -39,6 +40,56 @@ bool same_disparities(const cv::Mat& a, const cv::Mat& b) {
       if (std::isnan(u) != std::isnan(v) || (!std::isnan(u) && u != v)) return false;
     }
   return true;
+}
+
+// The 16-bit download decoded a row at a time (vectorised, collect()) as each pixel on its own (at()):
+// invalid pixels NaN, every other value offset + v * step, bit for bit, over a width that is not a multiple
+// of the vector and with rows padded (stride > width). Needs no device.
+TEST(GpuEngine, DecodedRowsEqualThePixelDecode) {
+  constexpr int kWidth = 77, kHeight = 5;
+  constexpr std::size_t kStride = 80;
+  std::vector<std::uint16_t> data(kStride * kHeight);
+  for (std::size_t i = 0; i < data.size(); ++i)
+    data[i] = i % 7 == 3 ? gpu::DisparityView::kInvalid : static_cast<std::uint16_t>((i * 2654435761u) >> 16);
+  gpu::DisparityView view;
+  view.data = data.data();
+  view.width = kWidth;
+  view.height = kHeight;
+  view.stride = kStride;
+  view.offset_px = -13.0f;
+  view.step_px = 1.0f / 512;
+  std::vector<float> row(kWidth + 1, 42.0f);
+  int invalid = 0, valid = 0;
+  for (int y = 0; y < kHeight; ++y) {
+    view.decode_row(y, row.data());
+    for (int x = 0; x < kWidth; ++x) {
+      const float want = view.at(x, y);
+      if (std::isnan(want)) {
+        EXPECT_TRUE(std::isnan(row[static_cast<std::size_t>(x)])) << x << "," << y;
+        ++invalid;
+      } else {
+        EXPECT_EQ(row[static_cast<std::size_t>(x)], want) << x << "," << y;
+        ++valid;
+      }
+    }
+    EXPECT_EQ(row[kWidth], 42.0f) << "decode_row wrote past the row's width";
+  }
+  EXPECT_GT(invalid, 40);
+  EXPECT_GT(valid, 300);
+}
+
+// The winner-takes-all walks rows in 128-px segments by default on a GPU and whole rows on a CPU device
+// (where segments only add work); an explicit segment is kept, and one under 16 px refused.
+TEST(GpuEngine, WinnerTakesAllSegmentByDeviceType) {
+  RUTD_SKIP_WITHOUT_VULKAN_DRIVER();
+  gpu::VulkanSgm automatic("", 64, 24, 16);
+  EXPECT_EQ(automatic.wta_segment(), automatic.device().type == "cpu" ? 0 : gpu::VulkanSgmOptions::kWtaSegmentGpu)
+      << automatic.device().type;
+  gpu::VulkanSgmOptions options;
+  options.wta_segment = 32;
+  EXPECT_EQ(gpu::VulkanSgm("", 64, 24, 16, options).wta_segment(), 32);
+  options.wta_segment = 8;
+  EXPECT_THROW(gpu::VulkanSgm("", 64, 24, 16, options), gpu::GpuError);
 }
 
 TEST(GpuEngine, RunOpensOneDeviceAndNamesIt) {

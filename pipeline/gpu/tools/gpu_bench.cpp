@@ -12,8 +12,8 @@
 //                  [--wta-segment 0,128,...] [--aggregate int|half] [--json]
 // --segment: rows aggregated in segments of N px with a --run-in px run-in (SgmConfig::segment; 0, the
 // default, whole rows); a list times each. --wta-segment: the winner-takes-all's rows walked in segments
-// (VulkanSgmOptions::wta_segment; 0 whole rows). --aggregate half: the aggregation's step in packed half
-// floats (VulkanSgmOptions::aggregate_half).
+// (VulkanSgmOptions::wta_segment; 0 whole rows, -1 the default: 128 px on a GPU, whole rows on a CPU device).
+// --aggregate half: the aggregation's step in packed half floats (VulkanSgmOptions::aggregate_half).
 // --input raw (the default, what the daemon runs): each frame uploads raw images and rectifies them on the
 // device through maps of a slightly rotated and scaled rig (a strip of under 480 rows is the centre of a
 // 480-row raw image, and only the raw rows its maps reach are uploaded), and downloads the rectified strips
@@ -29,8 +29,9 @@
 // subgroup, width, height, disparities, paths, segment, run_in, wta_segment, aggregate ("int"/"half"), dic
 // ("columns"/"pixels"/"none"), input, runs, warmup, then {"median": ms, "p99": ms} for upload_ms,
 // rectify_ms, census_ms, aggregate_ms, wta_ms, lr_median_ms, dic_ms, download_ms (device times; 0 without
-// timestamps) and end_to_end_ms (host), hz (1000 / median end to end), two_in_flight_hz, and band_ms (raw
-// input; else null).
+// timestamps) and end_to_end_ms (host), hz (1000 / median end to end), two_in_flight_hz, band_ms (raw
+// input; else null), and the end to end's two host parts: host_submit_ms (pack into the upload buffer and
+// submit) and host_collect_ms (wait for the frame, decode the disparity, copy the strips out).
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
@@ -138,7 +139,7 @@ struct Options {
   std::string device, sizes = "640x480,1280x1024,640x48", paths = "2,4,8", disparities = "64,128", left_pgm, right_pgm;
   int runs = 200, warmup = 20;
   std::string dic = "columns", input = "raw", aggregate = "int";
-  std::vector<int> segments{0}, wta_segments{0};
+  std::vector<int> segments{0}, wta_segments{VulkanSgmOptions::kWtaSegmentAuto};
   int run_in = 64;
   bool json = false;
 };
@@ -146,6 +147,8 @@ struct Options {
 // Every stage's times of the measured frames.
 struct Times {
   std::vector<double> upload, rectify, census, aggregate, wta, lr_median, dic, download, total, band;
+  // Host: pack and submit, then wait for the frame, decode the disparity and copy the strips out.
+  std::vector<double> submit, collect;
   double flight_hz = 0;
 };
 
@@ -200,8 +203,8 @@ int main(int argc, char** argv) {
     }
   }
   for (const int segment : o.wta_segments) {
-    if (segment != 0 && segment < 16) {
-      std::fprintf(stderr, "--wta-segment: 0 or >= 16 px\n");
+    if (segment != VulkanSgmOptions::kWtaSegmentAuto && segment != 0 && segment < 16) {
+      std::fprintf(stderr, "--wta-segment: -1 (auto), 0 or >= 16 px\n");
       return 2;
     }
   }
@@ -294,6 +297,7 @@ int main(int argc, char** argv) {
               const auto t0 = Clock::now();
               int ticket = 0;
               GpuStatus s = submit(params, dic_ptr, ticket);
+              const double submit_ms = ms_since(t0);
               if (s == GpuStatus::Ok) s = collect(ticket, &st);
               const double ms = ms_since(t0);
               if (s != GpuStatus::Ok) {
@@ -310,6 +314,8 @@ int main(int argc, char** argv) {
               t.dic.push_back(st.dic_ms);
               t.download.push_back(st.download_ms);
               t.total.push_back(ms);
+              t.submit.push_back(submit_ms);
+              t.collect.push_back(ms - submit_ms);
             }
             // Two in flight: submit frame i+1, then collect frame i.
             int tickets[2] = {0, 0};
@@ -349,22 +355,22 @@ int main(int argc, char** argv) {
                   "\"aggregate\":\"%s\",\"dic\":\"%s\",\"input\":\"%s\",\"runs\":%d,\"warmup\":%d,\"upload_ms\":%s,"
                   "\"rectify_ms\":%s,\"census_ms\":%s,\"aggregate_ms\":%s,\"wta_ms\":%s,\"lr_median_ms\":%s,"
                   "\"dic_ms\":%s,\"download_ms\":%s,\"end_to_end_ms\":%s,\"hz\":%.1f,\"two_in_flight_hz\":%.1f,"
-                  "\"band_ms\":%s}\n",
+                  "\"band_ms\":%s,\"host_submit_ms\":%s,\"host_collect_ms\":%s}\n",
                   json_escaped(info.name).c_str(), info.type.c_str(), json_escaped(info.driver).c_str(),
-                  info.subgroup_size, w, h, nd, paths, segment, o.run_in, wta_segment, o.aggregate.c_str(),
+                  info.subgroup_size, w, h, nd, paths, segment, o.run_in, sgm->wta_segment(), o.aggregate.c_str(),
                   o.dic.c_str(), o.input.c_str(), o.runs, o.warmup, json_stat(t.upload).c_str(),
                   json_stat(t.rectify).c_str(), json_stat(t.census).c_str(), json_stat(t.aggregate).c_str(),
                   json_stat(t.wta).c_str(), json_stat(t.lr_median).c_str(), json_stat(t.dic).c_str(),
                   json_stat(t.download).c_str(), json_stat(t.total).c_str(), 1000.0 / e2e, t.flight_hz,
-                  json_stat(t.band).c_str());
+                  json_stat(t.band).c_str(), json_stat(t.submit).c_str(), json_stat(t.collect).c_str());
             } else {
               std::printf(
                   "%-10s %5d %5d %4d %4d | %7.3f %7.3f %7.3f %9.3f %7.3f %7.3f %7.3f %8.3f | %9.3f %8.3f %8.0f | %9.0f "
                   "| %7.3f\n",
-                  size.c_str(), nd, paths, segment, wta_segment, quantile(t.upload, 0.5), quantile(t.rectify, 0.5),
-                  quantile(t.census, 0.5), quantile(t.aggregate, 0.5), quantile(t.wta, 0.5), quantile(t.lr_median, 0.5),
-                  quantile(t.dic, 0.5), quantile(t.download, 0.5), e2e, quantile(t.total, 0.99), 1000.0 / e2e,
-                  t.flight_hz, quantile(t.band, 0.5));
+                  size.c_str(), nd, paths, segment, sgm->wta_segment(), quantile(t.upload, 0.5),
+                  quantile(t.rectify, 0.5), quantile(t.census, 0.5), quantile(t.aggregate, 0.5), quantile(t.wta, 0.5),
+                  quantile(t.lr_median, 0.5), quantile(t.dic, 0.5), quantile(t.download, 0.5), e2e,
+                  quantile(t.total, 0.99), 1000.0 / e2e, t.flight_hz, quantile(t.band, 0.5));
             }
             std::fflush(stdout);
           }

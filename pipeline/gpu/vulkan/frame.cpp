@@ -2,6 +2,7 @@
 // parameters change), the pair packed into the slot's upload buffer and submitted, and collect() waiting
 // for the slot and reading its download buffer.
 #include <algorithm>
+#include <bit>
 #include <chrono>
 #include <cmath>
 #include <cstring>
@@ -77,10 +78,18 @@ float DisparityView::at(int x, int y) const {
 }
 
 void DisparityView::decode_row(int y, float* out) const {
+  // Locals and a bit mask rather than a branch, so that the compiler vectorises the loop: out could alias
+  // the members, and a branch keeps it scalar (a 640x480 frame is 0.3 million pixels, on every frame).
   const std::uint16_t* row = data + static_cast<std::size_t>(y) * stride;
-  for (int x = 0; x < width; ++x)
-    out[x] =
-        row[x] == kInvalid ? std::numeric_limits<float>::quiet_NaN() : offset_px + static_cast<float>(row[x]) * step_px;
+  const float offset = offset_px, step = step_px;
+  const auto nan = std::bit_cast<std::uint32_t>(std::numeric_limits<float>::quiet_NaN());
+  const int n = width;
+  for (int x = 0; x < n; ++x) {
+    const std::uint16_t v = row[x];
+    const auto f = std::bit_cast<std::uint32_t>(offset + static_cast<float>(v) * step);
+    const std::uint32_t invalid = 0u - static_cast<std::uint32_t>(v == kInvalid);  // all ones or zero
+    out[x] = std::bit_cast<float>((f & ~invalid) | (nan & invalid));
+  }
 }
 
 namespace {

@@ -158,10 +158,12 @@ VulkanSgm::VulkanSgm(const std::string& device, int width, int height, int max_d
     throw GpuError("VulkanSgm: aggregate_threads " + std::to_string(options.aggregate_threads) + " is not 0..128");
   if (options.wta_threads < 0 || options.wta_threads > 128)
     throw GpuError("VulkanSgm: wta_threads " + std::to_string(options.wta_threads) + " is not 0..128");
-  if (options.wta_segment != 0 && options.wta_segment < 16)
+  if (options.wta_segment != VulkanSgmOptions::kWtaSegmentAuto && options.wta_segment != 0 && options.wta_segment < 16)
     throw GpuError("VulkanSgm: wta_segment " + std::to_string(options.wta_segment) + " is not 0 or >= 16");
   m.options = options;
   m.device = std::make_unique<vk::Device>(device, options.faults);
+  if (options.wta_segment == VulkanSgmOptions::kWtaSegmentAuto)
+    m.options.wta_segment = m.device->info().type == "cpu" ? 0 : VulkanSgmOptions::kWtaSegmentGpu;
   const int timeout_ms = options.timeout_ms > 0 ? options.timeout_ms : m.device->info().type == "cpu" ? 300000 : 2000;
   m.timeout_ns = static_cast<std::uint64_t>(timeout_ms) * 1000000u;
   try {
@@ -175,6 +177,7 @@ VulkanSgm::~VulkanSgm() = default;
 
 const GpuDeviceInfo& VulkanSgm::device() const { return impl_->device->info(); }
 int VulkanSgm::width() const { return impl_->width; }
+int VulkanSgm::wta_segment() const { return impl_->options.wta_segment; }
 int VulkanSgm::height() const { return impl_->height; }
 int VulkanSgm::max_disparities() const { return impl_->max_disparities; }
 
