@@ -24,7 +24,7 @@ void TrafficabilitySink::publish(const PublishedFrame& frame) {
   }
   downstream_.publish(frame_);
   if (!pull_) return;
-  const std::size_t closed = tracker_.add(frame.t_ns, frame.measurement, frame_.motion);
+  const std::size_t closed = tracker_.add(frame.t_ns, frame.measurement, frame_.motion, frame.position);
   for (std::size_t i = 0; i < closed; ++i) downstream_.publish_segment(tracker_.closed(i));
 }
 

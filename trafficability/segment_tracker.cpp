@@ -27,8 +27,6 @@ const std::array<std::uint8_t, kRutStatusCount> kStatusSeverity = {
 
 namespace {
 
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
-
 int severity(Advisory a) noexcept {  // for "the worst of": GO < CAUTION < NO_GO
   switch (a) {
     case Advisory::Go: return 0;
@@ -91,7 +89,8 @@ void SegmentTracker::open_segment(std::uint64_t index) {
   have_open_ = true;
 }
 
-std::size_t SegmentTracker::add(std::int64_t t_ns, const RutMeasurement& m, const VehicleMotion& motion) {
+std::size_t SegmentTracker::add(std::int64_t t_ns, const RutMeasurement& m, const VehicleMotion& motion,
+                                const GeoFix& position) {
   n_closed_ = 0;
   ++stats_.frames;
   if (motion.state != SpeedState::Ok || !std::isfinite(motion.distance_m)) {
@@ -128,6 +127,13 @@ std::size_t SegmentTracker::add(std::int64_t t_ns, const RutMeasurement& m, cons
   Open& o = open_;
   ++o.frames;
   o.t_end_ns = t_ns;
+  if (position.valid()) {
+    const double from_middle = std::abs(d - (static_cast<double>(o.index) + 0.5) * config_.length_m);
+    if (!o.fix.valid() || from_middle < o.fix_from_middle_m) {
+      o.fix = position;
+      o.fix_from_middle_m = from_middle;
+    }
+  }
   if (kStatusSeverity[static_cast<std::size_t>(m.status)] > kStatusSeverity[static_cast<std::size_t>(o.worst)])
     o.worst = m.status;
   if (m.status == RutStatus::NoRut) ++o.no_rut;
@@ -164,6 +170,7 @@ void SegmentTracker::close_open() {
   s.frames = o.frames;
   s.refused = o.frames - o.ok;
   s.worst_status = o.frames == 0 ? RutStatus::NoMeasurement : o.worst;
+  s.position = o.fix;
   if (o.ok > 0) {
     s.mean_depth_mm = o.sum_depth / o.ok;
     s.max_depth_mm = o.max_depth;

@@ -1,6 +1,7 @@
 #include "recording/segment_csv_sink.hpp"
 
 #include <cmath>
+#include <limits>
 
 #include <fmt/format.h>
 
@@ -14,11 +15,17 @@ std::string number(double v, int decimals) { return std::isfinite(v) ? fmt::form
 }  // namespace
 
 std::string format_segment_row(const Segment& s) {
-  return fmt::format("{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}", s.index, number(s.start_m, 3),
+  // The position columns stay empty without a valid fix; degrees with 9 decimals, as the measurement CSV.
+  const bool fix = s.position.valid();
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  return fmt::format("{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}", s.index, number(s.start_m, 3),
                      number(s.end_m, 3), s.t_start_ns, s.t_end_ns, s.frames, s.refused, number(s.mean_depth_mm, 2),
                      number(s.max_depth_mm, 2), number(s.p95_depth_mm, 2), number(s.depth_uncertainty_mm, 2),
                      number(s.mean_width_mm, 2), number(s.mean_area_mm2, 0), to_string(s.worst_status),
-                     number(s.soil_strength, 1), number(s.soil_strength_uncertainty, 1), to_string(s.advisory));
+                     number(s.soil_strength, 1), number(s.soil_strength_uncertainty, 1), to_string(s.advisory),
+                     number(fix ? s.position.latitude_deg : nan, 9), number(fix ? s.position.longitude_deg : nan, 9),
+                     number(fix ? s.position.horizontal_error_m : nan, 2),
+                     number(fix ? s.position.heading_deg : nan, 1));
 }
 
 SegmentCsvSink::SegmentCsvSink(const std::string& path, const std::string& key) : path_(path) {

@@ -10,8 +10,10 @@
 #include <string>
 #include <vector>
 
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
+#include "recording/segment_csv_sink.hpp"
 #include "test_support.hpp"
 #include "trafficability/odometer.hpp"
 #include "trafficability/segment_tracker.hpp"
@@ -101,6 +103,52 @@ TEST(SoilStrength, InterpolatesAndCarriesTheUncertaintyBySlope) {
 
 // Hand-derived: 1 m segments at 1 m/s, 10 frames a metre. Depths 50 (GO), 120 (CAUTION) for one metre,
 // then 50 again: the advisory stays CAUTION for the 3 m of hysteresis; a refused metre is UNKNOWN.
+// A drive due north at 1 m/s, 30 measurements a second, each with the fix in force at its capture (5 fixes
+// a second, so up to 0.2 m old): every segment is located within that of its own middle, whenever it
+// closes; the segments driven without a fix (metres 3 and 4: the receiver lost it) have none, and the
+// segment CSV writes the position (9 decimals) or leaves its columns empty.
+TEST(SegmentTracker, EachSegmentIsLocatedAtItsMiddle) {
+  constexpr double kLat0 = 61.5, kMetresPerDegree = 111'320.0, kSpeed = 1.0;
+  SegmentTracker tracker(SegmentConfig{});
+  std::vector<Segment> out;
+  GeoFix fix;
+  for (int i = 0; i < 240; ++i) {  // 8 s, 8 m
+    const std::int64_t t = i * 1000 * kMs / 30;
+    if (t % (200 * kMs) < 1000 * kMs / 30) {  // a new fix every 0.2 s, where the vehicle is then
+      const double at_m = kSpeed * static_cast<double>(t) * 1e-9;
+      fix = GeoFix{};
+      fix.t_ns = t;
+      fix.mode = at_m >= 3 && at_m < 5 ? GeoFix::Mode::NoFix : GeoFix::Mode::Fix3d;
+      fix.latitude_deg = kLat0 + at_m / kMetresPerDegree;
+      fix.longitude_deg = 24.0;
+      fix.horizontal_error_m = 1.5;
+      fix.heading_deg = 0.0;
+    }
+    const VehicleMotion v{SpeedState::Ok, kSpeed * 1000, kSpeed * static_cast<double>(t) * 1e-9 + 0.001};
+    for (std::size_t n = tracker.add(t, ok_depth(40), v, fix), k = 0; k < n; ++k) out.push_back(tracker.closed(k));
+  }
+  for (std::size_t n = tracker.finish(), k = 0; k < n; ++k) out.push_back(tracker.closed(k));
+  ASSERT_EQ(out.size(), 8u);
+  int located = 0;
+  for (const Segment& s : out) {
+    const std::string at = "segment " + std::to_string(s.index);
+    if (s.index == 3 || s.index == 4) {
+      EXPECT_FALSE(s.position.valid()) << at;
+      EXPECT_NE(format_segment_row(s).find(",GO,,,,"), std::string::npos) << format_segment_row(s);
+      continue;
+    }
+    ASSERT_TRUE(s.position.valid()) << at;
+    const double middle = (s.start_m + s.end_m) / 2, where = (s.position.latitude_deg - kLat0) * kMetresPerDegree;
+    EXPECT_LE(where, middle + 0.04) << at;        // a fix taken before the measurement nearest the middle
+    EXPECT_GE(where, middle - 0.2 - 0.04) << at;  // and at most one fix period before it
+    EXPECT_NE(format_segment_row(s).find(fmt::format(",GO,{:.9f},24.000000000,1.50,0.0", s.position.latitude_deg)),
+              std::string::npos)
+        << format_segment_row(s);
+    ++located;
+  }
+  EXPECT_EQ(located, 6);
+}
+
 TEST(SegmentTracker, AdvisoryRisesAtOnceFallsAfterTheHysteresisAndIsUnknownWhenUntrusted) {
   SegmentConfig c;
   c.advisory.caution_depth_mm = 80;

@@ -4,6 +4,10 @@
 // published measurement with the frame's motion (trafficability/odometer.hpp) from the publish thread,
 // and `rutd replay` does the same from a recording; equal inputs give equal segments.
 //
+// Position: with a positioning source, each segment carries the valid fix of the measurement placed nearest
+// its middle ((k + 0.5) L), so a segment is located by its own ground, not by when it closed; a segment on
+// which no measurement with a valid fix was placed has none (GeoFix::Mode::None).
+//
 // Placement: a measurement is placed at motion.distance_m when that is beyond the last placed one; at
 // rest and while reversing (the distance holds) it adds nothing (counted as not placed), so a stop does
 // not weigh a segment with thirty copies of one rut a second. A measurement without a valid motion
@@ -76,9 +80,11 @@ class SegmentTracker {  // not thread-safe: one thread feeds it. Allocates only 
 
   explicit SegmentTracker(SegmentConfig config);  // throws std::invalid_argument (check_segment_config)
 
-  // One published measurement at capture time t_ns with the vehicle's motion then. Returns how many
-  // segments it closed; they are closed(0) .. closed(n-1), valid until the next call.
-  std::size_t add(std::int64_t t_ns, const RutMeasurement& m, const VehicleMotion& motion);
+  // One published measurement at capture time t_ns with the vehicle's motion then, and the position fix
+  // in force then (default: none). Returns how many segments it closed; they are closed(0) ..
+  // closed(n-1), valid until the next call.
+  std::size_t add(std::int64_t t_ns, const RutMeasurement& m, const VehicleMotion& motion,
+                  const GeoFix& position = GeoFix{});
   // Closes the open segment (end of a run); returns 0 or 1 as add does.
   std::size_t finish();
   const Segment& closed(std::size_t i) const noexcept { return closed_[i]; }
@@ -96,6 +102,8 @@ class SegmentTracker {  // not thread-safe: one thread feeds it. Allocates only 
     std::uint32_t u_count = 0;
     RutStatus worst = RutStatus::Ok;
     bool untrusted_speed = false;
+    GeoFix fix;                    // of the placed measurement nearest the middle, if any had one
+    double fix_from_middle_m = 0;  // its distance from the middle
   };
   void open_segment(std::uint64_t index);
   void close_open();

@@ -22,7 +22,8 @@ namespace rutd {
 std::string format_segment_row(const Segment& s);
 inline constexpr const char* kSegmentCsvHeader =
     "index,start_m,end_m,t_start_ns,t_end_ns,frames,refused,mean_depth_mm,max_depth_mm,p95_depth_mm,"
-    "depth_uncertainty_mm,mean_width_mm,mean_area_mm2,worst_status,soil_strength,soil_strength_uncertainty,advisory";
+    "depth_uncertainty_mm,mean_width_mm,mean_area_mm2,worst_status,soil_strength,soil_strength_uncertainty,advisory,"
+    "latitude_deg,longitude_deg,horizontal_error_m,heading_deg";
 
 class SegmentCsvSink final : public MeasurementSink {
  public:
