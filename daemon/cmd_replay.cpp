@@ -238,6 +238,13 @@ int replay_recording(const ReplayOptions& o) {
                  speed_stats.samples, speed_stats.ok, bad_log_lines);
     spdlog::info("trafficability: {}", traffic.describe());
   }
+  if (have_speed && segments_csv) {
+    std::string error;
+    if (!traffic.write_damage_csv(damage_csv_path(o.segments), error)) {
+      spdlog::error("{}", error);
+      return 1;
+    }
+  }
   if (context.engine->device() != device)
     spdlog::warn("the engine left {} during the replay: now on {}", device, context.engine->device());
   if (output_failed()) return 1;

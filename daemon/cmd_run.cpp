@@ -266,9 +266,12 @@ int run_daemon(const RunOptions& o, const RunInjection& injection) {
         d.other_id, r.kernel_dropped, r.queue_full);
     spdlog::info("trafficability: {}", traffic.describe());
   }
-  if (segments_csv)
+  if (segments_csv) {
     spdlog::info("segment CSV {}: {} rows written, {} lost", segments_csv->path(), segments_csv->rows_written(),
                  segments_csv->rows_lost());
+    std::string error;
+    if (speed && !traffic.write_damage_csv(damage_csv_path(segments_csv->path()), error)) spdlog::error("{}", error);
+  }
   if (gps) {
     gps->stop();
     const GpsStats g = gps->stats();

@@ -1,5 +1,6 @@
 #include "daemon/trafficability_sink.hpp"
 
+#include <fstream>
 #include <utility>
 
 #include <fmt/format.h>
@@ -58,6 +59,36 @@ std::string TrafficabilitySink::describe() const {
         r.max_share < 1 && f.share() > r.max_share ? fmt::format(", above the limit {:g} %", 100 * r.max_share) : "");
   }
   return s;
+}
+
+std::string damage_csv_path(const std::string& segments_csv) {
+  const std::string ext = ".csv";
+  const bool csv =
+      segments_csv.size() > ext.size() && segments_csv.compare(segments_csv.size() - ext.size(), ext.size(), ext) == 0;
+  return (csv ? segments_csv.substr(0, segments_csv.size() - ext.size()) : segments_csv) + ".damage.csv";
+}
+
+bool TrafficabilitySink::write_damage_csv(const std::string& path, std::string& error) const {
+  std::ofstream out(path, std::ios::out | std::ios::trunc);
+  out << kDamageCsvHeader << '\n';
+  const RutDamage& d = tracker_.damage();
+  for (std::size_t i = 0; i < d.rules().size(); ++i) {
+    const RutDamageRule& r = d.rules()[i];
+    const RutDamageFigures f = d.figures(i);
+    // The rule's name is the configuration's free text: quoted, as RFC 4180 does.
+    std::string name = "\"";
+    for (const char ch : r.name) name += ch == '"' ? std::string("\"\"") : std::string(1, ch);
+    name += '"';
+    out << fmt::format("{},{:g},{:g},{:g},{:.3f},{:.3f},{:.3f},{},{:.4f},{}\n", name, r.depth_mm, r.min_length_m,
+                       r.max_share, f.measured_m, f.unmeasured_m, f.rutted_m, f.stretches, f.share(),
+                       r.max_share < 1 && f.share() > r.max_share ? 1 : 0);
+  }
+  out.flush();
+  if (!out) {
+    error = path + ": cannot write the damage CSV";
+    return false;
+  }
+  return true;
 }
 
 }  // namespace rutd

@@ -107,6 +107,8 @@ TEST(TrafficabilityReplay, SegmentsEqualAnIndependentComputationAndReplayIsExact
     set("caution_depth_mm: 80 ", "caution_depth_mm: 50 ");
     set("no_go_depth_mm: 150", "no_go_depth_mm: 70");
     set("hysteresis_m: 3 ", "hysteresis_m: 2 ");
+    // The first damage rule within reach of the drive's 80 mm, so that its share is not 0.
+    set("depth_mm: 100, min_length_m: 1}", "depth_mm: 60, min_length_m: 0.3}");
     std::ofstream(config) << text;
   }
   const fs::path log = tmp.path() / "replay.log";
@@ -123,7 +125,7 @@ TEST(TrafficabilityReplay, SegmentsEqualAnIndependentComputationAndReplayIsExact
   std::ofstream(tmp.path() / "config.csv") << "length_m,1\nmax_age_ns,500000000\ncaution_depth_mm,50\n"
                                               "no_go_depth_mm,70\nhysteresis_m,2\nmax_untrusted_fraction,0.5\n"
                                               "min_trusted_frames,3\ncoverage_factor,2\nsoil_table,0:1 1:0\n"
-                                              "limit_one_pass,0\nlimit_fifty_passes,0\ndamage,100:1 200:1 200:4\n";
+                                              "limit_one_pass,0\nlimit_fifty_passes,0\ndamage,60:0.3 200:1 200:4\n";
   ASSERT_EQ(run_shell(std::string(kPython) + " " RUTD_SOURCE_DIR "/tests/unit/trafficability_reference.py " +
                       quoted(tmp.path())),
             0);
@@ -155,6 +157,21 @@ TEST(TrafficabilityReplay, SegmentsEqualAnIndependentComputationAndReplayIsExact
   EXPECT_GT(seen["CAUTION"], 0);
   EXPECT_GT(seen["NO_GO"], 0);
   EXPECT_GT(seen["UNKNOWN"], 0);
+  // The damage shares beside the segments, as the reference counts them from the per-frame CSV.
+  const auto damage = read_rows(tmp.path() / "seg.damage.csv");
+  const auto damage_want = read_rows(tmp.path() / "damage_ref.csv");
+  ASSERT_EQ(damage.size(), 3u);
+  ASSERT_EQ(damage_want.size(), 3u);
+  for (std::size_t i = 0; i < damage.size(); ++i) {
+    const std::string at = "damage rule " + std::to_string(i);
+    expect_close(damage[i].at("measured_m"), damage_want[i].at("measured_m"), 2e-3, at + " measured");
+    expect_close(damage[i].at("unmeasured_m"), damage_want[i].at("unmeasured_m"), 2e-3, at + " unmeasured");
+    expect_close(damage[i].at("rutted_m"), damage_want[i].at("rutted_m"), 2e-3, at + " rutted");
+    EXPECT_EQ(damage[i].at("stretches"), damage_want[i].at("stretches")) << at;
+  }
+  EXPECT_EQ(damage[0].at("rule"), "\"mineral soil (Finland)\"");
+  EXPECT_GT(num(damage[0].at("rutted_m")), 0.3) << "the drive's 80 mm stretch";
+  EXPECT_GT(num(damage[0].at("share")), 0.0);
   // The hostile frames were counted, not used.
   EXPECT_NE(replay_log.find("trafficability:"), std::string::npos) << replay_log;
 

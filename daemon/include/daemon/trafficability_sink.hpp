@@ -14,6 +14,12 @@
 
 namespace rutd {
 
+inline constexpr const char* kDamageCsvHeader =
+    "rule,depth_mm,min_length_m,max_share,measured_m,unmeasured_m,rutted_m,stretches,share,over_limit";
+
+// Where the damage CSV of a segment CSV goes: "DIR/NAME.csv" -> "DIR/NAME.damage.csv" (else PATH.damage.csv).
+std::string damage_csv_path(const std::string& segments_csv);
+
 // The next speed sample received at or before up_to_ns, in order of receipt; false when none.
 using SpeedSamplePull = std::function<bool(std::int64_t up_to_ns, SpeedSample& out)>;
 
@@ -33,6 +39,10 @@ class TrafficabilitySink final : public MeasurementSink {
   const SegmentTracker& tracker() const noexcept { return tracker_; }
   // The run's figures in words (for the log): distance, segments per advisory, motion, damage shares.
   std::string describe() const;
+  // The damage shares as a CSV (kDamageCsvHeader, one row per configured rule), written at the end of a
+  // run beside the segment CSV (damage_csv_path). False, with `error` naming the file, when it cannot be
+  // written; the segments already written stay.
+  bool write_damage_csv(const std::string& path, std::string& error) const;
 
  private:
   void take_samples(std::int64_t up_to_ns);
