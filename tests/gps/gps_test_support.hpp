@@ -39,6 +39,19 @@ inline constexpr double kNmeaResolutionDeg = 1e-5 / 60.0;
 inline bool gpsfake_installed() { return fs::exists("/usr/bin/gpsfake") && fs::exists("/usr/sbin/gpsd"); }
 
 // A port nobody listens on now (the kernel's choice for a socket bound to port 0).
+// Lines for fake_gpsd.py's sessions, one a line.
+inline void write_lines(const fs::path& file, const std::vector<std::string>& lines) {
+  std::ofstream out(file);
+  for (const auto& l : lines) out << l << '\n';
+}
+
+// A gpsd TPV report (3D fix) as gpsd 3.22 writes it, at `time` (ISO 8601, UTC).
+inline std::string tpv(const std::string& time, double lat, double lon) {
+  return R"({"class":"TPV","device":"/dev/ttyACM0","mode":3,"time":")" + time + R"(","ept":0.005,"lat":)" +
+         std::to_string(lat) + R"(,"lon":)" + std::to_string(lon) +
+         R"(,"altHAE":1340.0,"altMSL":1340.0,"alt":1340.0,"track":90.0,"speed":2.0,"eph":1.5})";
+}
+
 inline int free_loopback_port() {
   const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
   sockaddr_in a{};

@@ -102,6 +102,49 @@ TEST_F(GpsRunTest, RunJoinsGpsdPositionsAndReplayReproducesThem) {
   EXPECT_GE(valid, 15u);
 }
 
+// A gpsd that misbehaves mid-run (fake_gpsd.py): a malformed report, a line that is not JSON, a fix an
+// hour after the previous one 50 ms later (a time jump), then the connection dropped and served again.
+// Every pair is measured as without gpsd (all OK, none lost), the faults are counted in the run's
+// summary, and positions come back after the reconnection.
+TEST_F(GpsRunTest, AMisbehavingGpsdLeavesEveryMeasurementAlone) {
+  const int port = test::free_loopback_port();
+  test::write_lines(dir_ / "s1",
+                    {test::tpv("2026-11-25T12:00:00.000Z", -25.1, 28.1), R"({"class":"TPV","mode":3,"lat":-25.)",
+                     "GPS receiver says hello", test::tpv("2026-11-25T12:00:00.200Z", -25.2, 28.2),
+                     test::tpv("2026-11-25T13:00:00.400Z", -25.3, 28.3)});
+  std::vector<std::string> second;
+  for (int i = 0; i < 40; ++i) {
+    char time[40];
+    std::snprintf(time, sizeof time, "2026-11-25T13:00:%02d.%03dZ", 1 + i / 5, (i % 5) * 200);
+    second.push_back(test::tpv(time, -25.4 - 1e-5 * i, 28.4));
+  }
+  test::write_lines(dir_ / "s2", second);
+  test::ProcessGroup fake({"/usr/bin/python3", test::kGpsTestDir + "/fake_gpsd.py", "--port", std::to_string(port),
+                           "--gap", "0.1", (dir_ / "s1").string(), (dir_ / "s2").string()},
+                          dir_ / "fake.log");
+  ASSERT_TRUE(fake.started());
+  ASSERT_TRUE(test::wait_for_port(port, 10s)) << test::read_text(dir_ / "fake.log");
+  const path config = write_config(port);
+  ASSERT_EQ(
+      test::run_rutd("run --config " + test::quoted(config) + " --frames 45 --csv " + test::quoted(dir_ / "run.csv"),
+                     (dir_ / "run.log").string()),
+      0)
+      << test::read_text(dir_ / "run.log");
+  fake.stop();
+  const MeasurementCsv run = read_measurement_csv((dir_ / "run.csv").string());
+  ASSERT_GE(run.rows.size(), 40u);  // the freshest pair wins: a loaded machine may drop a few
+  std::size_t with_position = 0;
+  for (const MeasurementRow& r : run.rows) {
+    EXPECT_EQ(r.measurement.status, RutStatus::Ok) << "seq " << r.seq;
+    with_position += r.position.valid();
+  }
+  EXPECT_GE(with_position, 5u) << "positions did not come back after the reconnection";
+  const std::string log = test::read_text(dir_ / "run.log");
+  EXPECT_NE(log.find("without a fix, 2 malformed"), std::string::npos) << log;
+  EXPECT_NE(log.find("connections, 1 lost"), std::string::npos) << log;
+  EXPECT_NE(log.find("failed attempts, 1 time jumps"), std::string::npos) << log;
+}
+
 TEST_F(GpsRunTest, WithoutGpsdEveryPairIsMeasuredWithoutPosition) {
   const path config = write_config(test::free_loopback_port());  // nobody listens there
   ASSERT_EQ(

@@ -100,16 +100,8 @@ TEST_F(GpsdSourceTest, FixesFromGpsfakeEqualTheLogInOrder) {
   EXPECT_EQ(later.mode, GeoFix::Mode::NoFix);
 }
 
-void write_lines(const path& file, const std::vector<std::string>& lines) {
-  std::ofstream out(file);
-  for (const auto& l : lines) out << l << '\n';
-}
-
-std::string tpv(const std::string& time, double lat, double lon) {
-  return R"({"class":"TPV","device":"/dev/ttyACM0","mode":3,"time":")" + time + R"(","ept":0.005,"lat":)" +
-         std::to_string(lat) + R"(,"lon":)" + std::to_string(lon) +
-         R"(,"altHAE":1340.0,"altMSL":1340.0,"alt":1340.0,"track":90.0,"speed":2.0,"eph":1.5})";
-}
+using test::tpv;
+using test::write_lines;
 
 TEST_F(GpsdSourceTest, MalformedReportsTimeJumpsAndDisconnectsAreCountedAndSurvived) {
   const int port = test::free_loopback_port();
