@@ -22,7 +22,8 @@ expect() {  # WANT_STATUS WHAT COMMAND...
   fi
 }
 policy=". '$src/tests/skip_policy.sh'"
-expect 77 "an installable prerequisite skips outside CI" bash -c "$policy; skip_needs_installed canmatrix"
+expect 77 "an installable prerequisite skips outside CI" \
+  env -u RUTD_TEST_NO_SKIP bash -c "$policy; skip_needs_installed canmatrix"
 expect 1 "an installable prerequisite fails under RUTD_TEST_NO_SKIP=1" \
   env RUTD_TEST_NO_SKIP=1 bash -c "$policy; skip_needs_installed canmatrix"
 expect 77 "missing hardware still skips under RUTD_TEST_NO_SKIP=1" \
