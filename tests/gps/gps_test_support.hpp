@@ -38,7 +38,6 @@ inline constexpr double kNmeaResolutionDeg = 1e-5 / 60.0;
 
 inline bool gpsfake_installed() { return fs::exists("/usr/bin/gpsfake") && fs::exists("/usr/sbin/gpsd"); }
 
-// A port nobody listens on now (the kernel's choice for a socket bound to port 0).
 // Lines for fake_gpsd.py's sessions, one a line.
 inline void write_lines(const fs::path& file, const std::vector<std::string>& lines) {
   std::ofstream out(file);
@@ -52,6 +51,7 @@ inline std::string tpv(const std::string& time, double lat, double lon) {
          R"(,"altHAE":1340.0,"altMSL":1340.0,"alt":1340.0,"track":90.0,"speed":2.0,"eph":1.5})";
 }
 
+// A port nobody listens on now (the kernel's choice for a socket bound to port 0).
 inline int free_loopback_port() {
   const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
   sockaddr_in a{};

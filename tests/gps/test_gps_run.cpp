@@ -103,8 +103,8 @@ TEST_F(GpsRunTest, RunJoinsGpsdPositionsAndReplayReproducesThem) {
 }
 
 // A gpsd that misbehaves mid-run (fake_gpsd.py): a malformed report, a line that is not JSON, a fix an
-// hour after the previous one 50 ms later (a time jump), then the connection dropped and served again.
-// Every pair is measured as without gpsd (all OK, none lost), the faults are counted in the run's
+// hour after the previous one 100 ms later (a time jump), then the connection dropped and served again.
+// Every pair is measured as without gpsd (all OK), the faults are counted in the run's
 // summary, and positions come back after the reconnection.
 TEST_F(GpsRunTest, AMisbehavingGpsdLeavesEveryMeasurementAlone) {
   const int port = test::free_loopback_port();
