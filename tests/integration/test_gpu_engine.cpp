@@ -3,6 +3,7 @@
 // a device lost mid-run, a pipeline that fails to build) seen by the checks every GPU test makes
 // (gpu_test_support.hpp), so that a GPU test fails, rather than passes on the CPU fallback, when the GPU
 // path breaks. Skipped only where no Vulkan driver exists.
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <regex>
@@ -88,8 +89,53 @@ TEST(GpuEngine, WinnerTakesAllSegmentByDeviceType) {
   gpu::VulkanSgmOptions options;
   options.wta_segment = 32;
   EXPECT_EQ(gpu::VulkanSgm("", 64, 24, 16, options).wta_segment(), 32);
+  // A workgroup of several subgroups walks whole rows (segments there failed a check on an H100).
+  options.wta_threads = 2 * static_cast<int>(automatic.device().subgroup_size);
+  EXPECT_EQ(gpu::VulkanSgm("", 64, 24, 16, options).wta_segment(), 0);
+  options.wta_threads = 0;
   options.wta_segment = 8;
   EXPECT_THROW(gpu::VulkanSgm("", 64, 24, 16, options), gpu::GpuError);
+}
+
+TEST(GpuEngine, AggregationLanesByDeviceType) {
+  RUTD_SKIP_WITHOUT_VULKAN_DRIVER();
+  gpu::VulkanSgm automatic("", 64, 24, 16);
+  const auto subgroup = static_cast<int>(automatic.device().subgroup_size);
+  // A CPU device walks a line with the whole workgroup (its subgroup); a GPU with kAggregateLanesGpu.
+  EXPECT_EQ(automatic.aggregate_lanes(),
+            automatic.device().type == "cpu" ? subgroup : std::min(gpu::VulkanSgmOptions::kAggregateLanesGpu, subgroup))
+      << automatic.device().type;
+  gpu::VulkanSgmOptions options;
+  options.aggregate_lanes = 2;
+  EXPECT_EQ(gpu::VulkanSgm("", 64, 24, 16, options).aggregate_lanes(), 2);
+  options.aggregate_lanes = 256;  // more than the workgroup: the workgroup
+  EXPECT_EQ(gpu::VulkanSgm("", 64, 24, 16, options).aggregate_lanes(), subgroup);
+  options.aggregate_lanes = 3;  // not a power of two
+  EXPECT_THROW(gpu::VulkanSgm("", 64, 24, 16, options), gpu::GpuError);
+  options.aggregate_lanes = -1;
+  EXPECT_THROW(gpu::VulkanSgm("", 64, 24, 16, options), gpu::GpuError);
+}
+
+TEST(GpuEngine, DicWindowSubgroupsByDeviceAndWindow) {
+  RUTD_SKIP_WITHOUT_VULKAN_DRIVER();
+  gpu::DicKernelConfig strip, frame, pixels;
+  strip.column_windows = frame.column_windows = true;
+  strip.column_block_rows = 0;   // one block of the whole 48 rows
+  frame.column_block_rows = 16;  // blocks of 16 rows
+  gpu::VulkanSgm automatic("", 64, 48, 16);
+  const bool cpu = automatic.device().type == "cpu";
+  const auto subgroup = static_cast<int>(automatic.device().subgroup_size);
+  // Several subgroups only for tall windows on a GPU (a CPU device runs barriers slowly).
+  EXPECT_EQ(automatic.dic_subgroups_per_window(strip), cpu || subgroup < 4 ? 1 : std::max(1, 128 / subgroup));
+  EXPECT_EQ(automatic.dic_subgroups_per_window(frame), 1);
+  EXPECT_EQ(automatic.dic_subgroups_per_window(pixels), 1);
+  gpu::VulkanSgmOptions options;
+  options.dic_window_subgroups = 3;
+  gpu::VulkanSgm three("", 64, 48, 16, options);
+  EXPECT_EQ(three.dic_subgroups_per_window(frame), subgroup < 4 ? 1 : 3);
+  EXPECT_EQ(three.dic_subgroups_per_window(pixels), 1);  // the per-pixel mode keeps one
+  options.dic_window_subgroups = 17;
+  EXPECT_THROW(gpu::VulkanSgm("", 64, 48, 16, options), gpu::GpuError);
 }
 
 TEST(GpuEngine, RunOpensOneDeviceAndNamesIt) {

@@ -1,8 +1,8 @@
 #version 450
 // All SGM path directions in one dispatch: workgroup (line, direction) walks one line of the image in
-// direction kDirections[direction] (as sgm_reference.cpp). Its kThreads invocations own consecutive
-// blocks of kWords words of four disparities: invocation t has d = 4 (kWords t + k) + e, k < kWords,
-// e < 4. They read the matching costs C of a word from cost.comp's volume and store the four path costs L
+// direction kDirections[direction] (as sgm_reference.cpp), or kLines lines with LINES (below). A line's
+// invocations own consecutive blocks of kWords words of four disparities: invocation t has
+// d = 4 (kWords t + k) + e, k < kWords, e < 4. They read the matching costs C of a word from cost.comp's volume and store the four path costs L
 // as one word of four bytes in that direction's own volume, path_cost[direction][y][x][word];
 // winner-takes-all (wta.comp) adds the directions. No atomics and no zeroing: every word is written once.
 //   L(p, d) = C(p, d) + min(L(p-r, d), L(p-r, d-1) + P1, L(p-r, d+1) + P1, min_k L(p-r, k) + P2) - min_k L(p-r, k)
@@ -36,11 +36,23 @@ const bool kHalf = true;
 #else
 const bool kHalf = false;
 #endif
-// Set when the pipeline is made: the workgroup size (the device's subgroup size for the fast path) and
-// kWords = the band's words of four disparities / kThreads rounded up.
+// Set when the pipeline is made: the workgroup size (the device's subgroup size for the fast path), kWords
+// = the band's words of four disparities / kLanes rounded up, and kLanes, the invocations that walk one
+// line: the whole workgroup, or with LINES defined (aggregate_lines, built from this file as HALF is)
+// fewer: kThreads / kLanes lines a workgroup, kLanes a power of two dividing the device's subgroup size,
+// so that a line's invocations lie in one subgroup. With fewer lanes each invocation owns more
+// disparities: the step's fixed work (the minimum across invocations, the edge shuffles, the addressing)
+// is shared by more of them, and the minimum is a butterfly of log2(kLanes) shuffles within the line's
+// lanes, with no barrier and no shared memory. Two builds rather than a specialization constant: the
+// H100's compiler made the one-line walk 35% slower with the other's code present, though unreachable.
 layout(local_size_x_id = 0) in;
 layout(constant_id = 0) const int kThreads = 32;
 layout(constant_id = 1) const int kWords = 1;
+#ifdef LINES
+#extension GL_KHR_shader_subgroup_shuffle : require
+layout(constant_id = 2) const int kLanes = 8;
+const int kLines = kThreads / kLanes;  // lines a workgroup walks
+#endif
 layout(std430, binding = 0) readonly buffer Cost { uint cost[]; };  // cost.comp's, [y][x][word]
 // One buffer per direction (each within the device's storage-buffer range), [y][x][word], 4 bytes a word;
 // words per pixel: num_disparities / 16 rounded up, times 4.
@@ -49,12 +61,14 @@ layout(std430, binding = 1) writeonly buffer PathCost { uint w[]; } path_cost[8]
 layout(push_constant) uniform Params { int width, height, p1, p2, words, segment, run_in; } pc;
 
 const uint kBig = 0xFFFFu;  // beyond any L: past the ends of the band
-const int kRing = 8;
+const int kRing = 8;  // steps whose costs are loaded ahead (registers: 2 kRing kWords)
 const int kOwn = 4 * kWords;  // disparities per invocation
 const ivec2 kDirections[8] = ivec2[8](ivec2(1, 0), ivec2(-1, 0), ivec2(0, 1), ivec2(0, -1), ivec2(1, 1), ivec2(-1, 1),
                                       ivec2(1, -1), ivec2(-1, -1));
 // The shared-memory exchange, by step parity: each invocation's first and last L, each subgroup's minimum.
+#ifndef LINES
 shared uint edge_first[2][kThreads], edge_last[2][kThreads], subgroup_min[2][kThreads];
+#endif
 
 #ifdef HALF
 // 1024 + each byte of a word as halves, bytes 0, 1 and bytes 2, 3.
@@ -71,8 +85,19 @@ void main() {
   const int W = pc.width, H = pc.height;
   const uint dir = gl_WorkGroupID.y;
   const int dx = kDirections[dir].x, dy = kDirections[dir].y;
+  const int t = int(gl_LocalInvocationID.x);
+  const int lines = dy == 0 ? H : dx == 0 ? W : W + H - 1;
+#ifdef LINES
+  const int lane = t % kLanes;  // among the invocations of this line
+  int line = int(gl_WorkGroupID.x) * kLines + t / kLanes;
+  // A line past the last walks nothing (its invocations stay for their subgroup's shuffles).
+  const bool live = line < lines;
+  line = min(line, lines - 1);
+#else
+  const int lane = t;
   const int line = int(gl_WorkGroupID.x);
-  if (line >= (dy == 0 ? H : dx == 0 ? W : W + H - 1)) return;  // the whole workgroup: no barrier skipped
+  if (line >= lines) return;  // the whole workgroup: no barrier skipped
+#endif
   // Start of the line: the pixels whose predecessor (x - dx, y - dy) lies outside the image.
   int x0, y0;
   if (dy == 0) {
@@ -97,10 +122,17 @@ void main() {
   }
   const int along_x = dx == 0 ? 1 << 30 : dx > 0 ? W - x0 : x0 + 1;
   const int along_y = dy == 0 ? 1 << 30 : dy > 0 ? H - y0 : y0 + 1;
-  const int steps = min(min(along_x, along_y), seg_end);  // until the line leaves the image or its segment
-  const int t = int(gl_LocalInvocationID.x);
-  const int first_word = kWords * t;
+  // Until the line leaves the image or its segment. LINES: the subgroup's lines step together for their
+  // shuffles, as long as the longest of them, each storing only its own steps.
+#ifdef LINES
+  const int steps = live ? min(min(along_x, along_y), seg_end) : 0;
+  const int group_steps = int(subgroupMax(uint(steps)));
+#else
+  const int steps = min(min(along_x, along_y), seg_end);
+  const int group_steps = steps;
   const bool one_subgroup = gl_NumSubgroups == 1u;
+#endif
+  const int first_word = kWords * lane;
   // This invocation's words at the line's first pixel, and the step between pixels, in words.
   const int stride = (dy * W + dx) * pc.words;
   int at = (y0 * W + x0) * pc.words + first_word;
@@ -121,7 +153,7 @@ void main() {
 #endif
   uint below = kBig, above = kBig;  // L(p-r) at this block's first d - 1 and last d + 1
   uint prev_min = 0u;               // kHalf: biased
-  for (int block = 0; block * kRing < steps; ++block) {
+  for (int block = 0; block * kRing < group_steps; ++block) {
     [[unroll]] for (int s = 0; s < kRing; ++s)  // the next block's costs, in flight during this block
       [[unroll]] for (int k = 0; k < kWords; ++k)
         next[s][k] = (block + 1) * kRing + s < steps && first_word + k < pc.words
@@ -129,7 +161,12 @@ void main() {
                          : 0xFFFFFFFFu;
     [[unroll]] for (int s = 0; s < kRing; ++s) {
       const int step = block * kRing + s;
-      if (step >= steps) break;  // uniform: the whole workgroup leaves together
+      if (step >= group_steps) break;  // uniform: the whole workgroup (subgroup) leaves together
+#ifdef LINES
+      const bool store = step >= keep_from && step < steps;
+#else
+      const bool store = step >= keep_from;
+#endif
       const int here = at + step * stride;
       uint local_min, first, last;
 #ifdef HALF
@@ -151,7 +188,7 @@ void main() {
           m2 = min(m2, l);
         }
         [[unroll]] for (int k = 0; k < kWords; ++k)
-          if (first_word + k < pc.words && step >= keep_from)
+          if (first_word + k < pc.words && store)
             path_cost[dir].w[here + k] = bytes_of(cur[2 * k], cur[2 * k + 1]);
         local_min = uint(min(m2.x, m2.y));
         first = uint(cur[0].x);
@@ -174,7 +211,7 @@ void main() {
           cur[i] = l;
         }
         [[unroll]] for (int k = 0; k < kWords; ++k)
-          if (first_word + k < pc.words && step >= keep_from)
+          if (first_word + k < pc.words && store)
             path_cost[dir].w[here + k] = (cur[4 * k] & 0xFFu) | ((cur[4 * k + 1] & 0xFFu) << 8) |
                                          ((cur[4 * k + 2] & 0xFFu) << 16) | ((cur[4 * k + 3] & 0xFFu) << 24);
         first = cur[0];
@@ -184,6 +221,16 @@ void main() {
 #endif
       // Past either end of the band: kBig (biased or not, beyond any L).
       const uint big = kHalf ? 2047u : kBig;
+#ifdef LINES
+      // Shuffles that cross into the neighbouring line are replaced at the line's first and last lane.
+      below = subgroupShuffleUp(last, 1u);
+      above = subgroupShuffleDown(first, 1u);
+      if (lane == 0) below = big;
+      if (lane == kLanes - 1) above = big;
+      uint m = local_min;
+      [[unroll]] for (int o = 1; o < kLanes; o <<= 1) m = min(m, subgroupShuffleXor(m, uint(o)));
+      prev_min = m;
+#else
       if (one_subgroup) {
         below = subgroupShuffleUp(last, 1u);
         above = subgroupShuffleDown(first, 1u);
@@ -202,6 +249,7 @@ void main() {
         prev_min = kBig;
         for (uint g = 0u; g < gl_NumSubgroups; ++g) prev_min = min(prev_min, subgroup_min[par][g]);
       }
+#endif
     }
     [[unroll]] for (int r = 0; r < kRing; ++r)
       [[unroll]] for (int k = 0; k < kWords; ++k) ring[r][k] = next[r][k];

@@ -3,10 +3,11 @@
 // zero-normalised SSD over the first-order warp x_right = x + c + a xi + b eta (start a = 1, b = 0,
 // c = -d0), the right image sampled by its cubic B-spline along rows. The maths and the rejections are
 // pipeline/dic_refine.hpp's (DicConfig), in float, as dic_reference.cpp; no warm start from the
-// neighbour (windows are independent here). One subgroup per window: its invocations take the window's
-// pixels in turn and every sum is a subgroup sum, so all invocations hold the same totals and take the
-// same branches; the sums' order differs from the reference's, which agrees to float rounding. Works for
-// any subgroup size: each subgroup walks the columns with the stride of the whole dispatch. The output is
+// neighbour (windows are independent here). One subgroup per window (or a workgroup of kGroups
+// subgroups, below): its invocations take the window's pixels in turn and every sum is a subgroup sum,
+// so all invocations hold the same totals and take the same branches; the sums' order differs from the
+// reference's, which agrees to float rounding. Works for any subgroup size: each subgroup walks the
+// columns with the stride of the whole dispatch. The output is
 // the 16-bit fixed-point disparity the host downloads (common.glsl), every pixel written once: refined, or
 // invalid where no window refined it (no fill before).
 // Two modes (specialization constant 0):
@@ -21,8 +22,15 @@
 #extension GL_KHR_shader_subgroup_arithmetic : require
 #extension GL_EXT_control_flow_attributes : require
 #extension GL_EXT_shader_16bit_storage : require
-layout(local_size_x = 64) in;
+layout(local_size_x_id = 2) in;
 layout(constant_id = 0) const bool kColumnWindows = false;
+// The subgroups that share a window: 1, its own subgroup (several windows a workgroup); more (column
+// windows), every subgroup of the workgroup, one window a workgroup: each sums its pixels, and the
+// subgroups' sums meet in shared memory behind a barrier, added in the same order by every invocation so
+// that all hold the same totals and take the same branches. For tall windows on few columns (a strip's
+// whole-height windows), which one subgroup walks pixel after pixel. kWorkgroup: the workgroup size.
+layout(constant_id = 1) const int kGroups = 1;
+layout(constant_id = 2) const int kWorkgroup = 64;
 layout(std430, binding = 0) readonly buffer Left { uint left_px[]; };
 layout(std430, binding = 1) readonly buffer CoefL { float coef_l[]; };
 layout(std430, binding = 2) readonly buffer CoefR { float coef_r[]; };
@@ -40,6 +48,41 @@ layout(push_constant) uniform Params {
 #include "common.glsl"
 
 const int kCache = 8;  // window pixels an invocation keeps in registers
+
+// The window's partial sums, two copies used in turn (as wta.comp's exchange); subgroups of at least 4
+// invocations (the host keeps kGroups at 1 on narrower ones).
+const int kMaxSums = 14;
+shared float partial[2][kGroups > 1 ? kWorkgroup / 4 : 1][kMaxSums];
+int turn = 0;
+
+// The invocations that share a window, and this one's index among them.
+int window_lanes() { return kGroups == 1 ? int(gl_SubgroupSize) : int(gl_WorkGroupSize.x); }
+int window_lane() { return kGroups == 1 ? int(gl_SubgroupInvocationID) : int(gl_LocalInvocationID.x); }
+
+// v[0, n) summed over the window's invocations; every invocation gets the same totals.
+void window_sums(inout float v[kMaxSums], int n) {
+  for (int i = 0; i < n; ++i) v[i] = subgroupAdd(v[i]);
+  if (kGroups == 1) return;
+  if (subgroupElect())
+    for (int i = 0; i < n; ++i) partial[turn][gl_SubgroupID][i] = v[i];
+  barrier();
+  for (int i = 0; i < n; ++i) {
+    float total = 0.0;
+    for (uint g = 0u; g < gl_NumSubgroups; ++g) total += partial[turn][g][i];
+    v[i] = total;
+  }
+  turn ^= 1;
+}
+
+float window_min(float v) {
+  v = subgroupMin(v);
+  if (kGroups == 1) return v;
+  if (subgroupElect()) partial[turn][gl_SubgroupID][0] = v;
+  barrier();
+  for (uint g = 0u; g < gl_NumSubgroups; ++g) v = min(v, partial[turn][g][0]);
+  turn ^= 1;
+  return v;
+}
 
 int mirror(int k) { return k < 0 ? -k : k > pc.width - 1 ? 2 * (pc.width - 1) - k : k; }
 
@@ -69,7 +112,7 @@ float left_dx(int cx, int r) {
 bool solve(int x, int y, int x0, int x1, int y0, int y1, float d0, out float b_out, out float c_out) {
   const int wx = x1 - x0 + 1, npx = wx * (y1 - y0 + 1);
   const float n = float(npx);
-  const int lane = int(gl_SubgroupInvocationID), lanes = int(gl_SubgroupSize);
+  const int lane = window_lane(), lanes = window_lanes();
 
   // Reference side: f = left - 128, fx its spline's derivative, sd = fx (1, xi, eta).
   precise float f_sum = 0.0, ff = 0.0;
@@ -94,10 +137,15 @@ bool solve(int x, int y, int x0, int x1, int y0, int y1, float d0, out float b_o
     sd_sum[0] += fx; sd_sum[1] += fx * xi; sd_sum[2] += fx * eta;
     sd_fs[0] += fx * f; sd_fs[1] += fx * f * xi; sd_fs[2] += fx * f * eta;
   }
-  f_sum = subgroupAdd(f_sum);
-  ff = subgroupAdd(ff);
-  for (int k = 0; k < 6; ++k) hm[k] = subgroupAdd(hm[k]);
-  for (int k = 0; k < 3; ++k) { sd_sum[k] = subgroupAdd(sd_sum[k]); sd_fs[k] = subgroupAdd(sd_fs[k]); }
+  {
+    float v[kMaxSums] = float[kMaxSums](f_sum, ff, hm[0], hm[1], hm[2], hm[3], hm[4], hm[5], sd_sum[0], sd_sum[1],
+                                        sd_sum[2], sd_fs[0], sd_fs[1], sd_fs[2]);
+    window_sums(v, 14);
+    f_sum = v[0];
+    ff = v[1];
+    for (int k = 0; k < 6; ++k) hm[k] = v[2 + k];
+    for (int k = 0; k < 3; ++k) { sd_sum[k] = v[8 + k]; sd_fs[k] = v[11 + k]; }
+  }
   precise const float f_mean = f_sum / n;
   precise const float f2 = ff - f_sum * f_mean;
   if (hm[0] < pc.min_gradient * pc.min_gradient * n || !(f2 > 0.0)) return false;
@@ -157,10 +205,12 @@ bool solve(int x, int y, int x0, int x1, int y0, int y1, float d0, out float b_o
       fg += f * g;
       sd_g[0] += fx * g; sd_g[1] += fx * g * xi; sd_g[2] += fx * g * eta;
     }
-    g_sum = subgroupAdd(g_sum);
-    gg = subgroupAdd(gg);
-    fg = subgroupAdd(fg);
-    for (int k = 0; k < 3; ++k) sd_g[k] = subgroupAdd(sd_g[k]);
+    {
+      float v[kMaxSums];
+      v[0] = g_sum; v[1] = gg; v[2] = fg; v[3] = sd_g[0]; v[4] = sd_g[1]; v[5] = sd_g[2];
+      window_sums(v, 6);
+      g_sum = v[0]; gg = v[1]; fg = v[2]; sd_g[0] = v[3]; sd_g[1] = v[4]; sd_g[2] = v[5];
+    }
     precise const float g_mean = g_sum / n;
     precise const float g2 = gg - g_sum * g_mean;
     if (!(g2 > 1e-6)) return false;
@@ -226,10 +276,13 @@ bool valid_disparity(float d) { return !isnan(d) && !isinf(d); }
 // #(values < v) <= n / 2 < #(values <= v), found by counting (a block is tens of rows). False when fewer
 // than a quarter of the rows are valid. Uniform in the subgroup.
 bool column_start(int x, int y0, int y1, out float start) {
-  const int lane = int(gl_SubgroupInvocationID), lanes = int(gl_SubgroupSize);
+  const int lane = window_lane(), lanes = window_lanes();
   int count = 0;
   for (int r = y0 + lane; r <= y1; r += lanes) count += valid_disparity(initial[r * pc.width + x]) ? 1 : 0;
-  const int n = subgroupAdd(count);
+  float counts[kMaxSums];
+  counts[0] = float(count);  // exact: a block's rows
+  window_sums(counts, 1);
+  const int n = int(counts[0]);
   if (n == 0 || 4 * n < y1 - y0 + 1) return false;
   const int k = n / 2;
   float found = uintBitsToFloat(0x7F800000u);  // +inf: no candidate on this invocation
@@ -245,7 +298,7 @@ bool column_start(int x, int y0, int y1, out float start) {
     }
     if (less <= k && k < less_equal) found = min(found, v);  // every such v is the same value
   }
-  start = subgroupMin(found);
+  start = window_min(found);
   return true;
 }
 
@@ -260,15 +313,17 @@ void refine_column(int x, int block) {
     const int x0 = max(0, x - pc.h), x1 = min(pc.width - 1, x + pc.h);
     ok = solve(x, yc, x0, x1, y0, y1, d0, b, c);
   }
-  for (int r = y0 + int(gl_SubgroupInvocationID); r <= y1; r += int(gl_SubgroupSize)) {
+  for (int r = y0 + window_lane(); r <= y1; r += window_lanes()) {
     precise const float d = -(c + b * float(r - yc));
     store(x, r, ok ? encode_disparity(d, pc.base, pc.scale) : kInvalidDisparity);
   }
 }
 
 void main() {
-  const int stride = int(gl_NumWorkGroups.x * gl_NumSubgroups);
-  const int first = int(gl_WorkGroupID.x * gl_NumSubgroups + gl_SubgroupID);
+  // Windows: one a subgroup, or one a workgroup (kGroups > 1).
+  const int stride = int(gl_NumWorkGroups.x) * (kGroups == 1 ? int(gl_NumSubgroups) : 1);
+  const int first = int(gl_WorkGroupID.x) * (kGroups == 1 ? int(gl_NumSubgroups) : 1) +
+                    (kGroups == 1 ? int(gl_SubgroupID) : 0);
   const int lane = int(gl_SubgroupInvocationID);
   if (kColumnWindows) {
     const int block = int(gl_WorkGroupID.y), last = pc.first_row + pc.rows;

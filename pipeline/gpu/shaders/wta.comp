@@ -19,11 +19,19 @@
 // key(x, d)) holds, for right pixel xr = x - min_disparity - d, the minimum over d' <= d of its candidates
 // (x - d + d', d'). An invocation updates its own d from the top down and takes acc_{d-1} of its first d
 // from the previous invocation (a shuffle); acc at d = num_disparities - 1 is complete and written at
-// every step, and at the row's end every acc_d is complete (its other candidates lie past the edge). No
-// atomics and no buffer to fill: every pixel of both outputs is written once.
+// every step, and at the row's end every acc_d is complete (its other candidates lie past the edge).
+// Whole rows (this build, segment 0): no atomics and no buffer to fill, every pixel of both outputs is
+// written once.
 //
-// Segments (push constant segment > 0): workgroup x walks columns [x0, x0 + segment), starting
-// num_disparities - 1 px early so that the right view's minima it writes are complete; 0: whole rows.
+// Segments (built with SEGMENTED, wta_segmented, for push constant segment > 0): workgroup x walks columns
+// [x0, x0 + segment) and no others, so that a row's segments share no work. A right pixel's candidates
+// then span up to 1 + num_disparities / segment segments, each of which gives the minimum over its own
+// candidates: the segment that holds the last candidate where it writes acc_{num_disparities - 1}, the
+// others from their acc_d at their last column (every acc_d of a segment's last column is written). Each
+// goes into right_key by atomicMin, over the frame's fill of 0xFFFFFFFF (frame.cpp). Two builds: with the
+// segments' code present the whole-row walk of a workgroup of several subgroups (the shared-memory path)
+// gave wrong disparities on an H100, as segments in such a workgroup still do (the host never runs them:
+// vulkan_sgm.cpp), while the whole-row build and every configuration on lavapipe are right.
 //
 // Where the workgroup is one subgroup (kThreads the device's subgroup size) the group operations are
 // subgroup operations, with no barrier; where a driver splits it into several subgroups they go through
@@ -43,7 +51,11 @@ layout(constant_id = 3) const int kPaths = 8;
 // aggregate.comp's, [y][x][word], `words` words per pixel.
 layout(std430, binding = 0) readonly buffer PathCost { uint w[]; } path_cost[8];
 layout(std430, binding = 1) writeonly buffer DispL { int disp_l[]; };
+#ifdef SEGMENTED
+layout(std430, binding = 2) buffer RightKey { uint right_key[]; };  // atomicMin
+#else
 layout(std430, binding = 2) writeonly buffer RightKey { uint right_key[]; };
+#endif
 layout(push_constant) uniform Params { int width, height, min_disparity, uniqueness, words, segment; } pc;
 
 const uint kNone = 0xFFFFFFFFu;
@@ -106,7 +118,11 @@ void main() {
     x_end = min(W, x_begin + pc.segment);
   }
   if (x_begin >= W) return;  // the whole workgroup: no barrier skipped
-  const int start = max(0, x_begin - (kD - 1));
+#ifdef SEGMENTED
+  const int start = x_begin;
+#else
+  const int start = max(0, x_begin - (kD - 1));  // x_begin is 0 (segment 0): the run-in is never taken
+#endif
   const int first_word = kWords * lane, first_d = 4 * first_word;
   const int row = y * W;
 
@@ -149,10 +165,16 @@ void main() {
       const uint carry = from_previous(acc[kOwn - 1], kNone);
       [[unroll]] for (int i = kOwn - 1; i > 0; --i) acc[i] = min(acc[i - 1], key[i]);
       acc[0] = min(carry, key[0]);
-      if (x < x_begin) continue;  // the run-in of a segment: the right view only (uniform)
+#ifndef SEGMENTED
+      if (x < x_begin) continue;
+#endif
       if (lane == kEmitLane) {
         const int xr = x - dmin - (kD - 1);
+#ifdef SEGMENTED
+        if (xr >= 0) atomicMin(right_key[row + xr], acc[kEmitIndex]);
+#else
         if (xr >= 0) right_key[row + xr] = acc[kEmitIndex];
+#endif
       }
       int out_l = -1;
       if (x >= dmin + kD - 1) {  // uniform
@@ -189,6 +211,15 @@ void main() {
     at += kRing * pc.words;
   }
 
+  // A segment's last column: acc_d holds the segment's share of xr = x_end - 1 - dmin - d (d =
+  // num_disparities - 1 was written above).
+#ifdef SEGMENTED
+  [[unroll]] for (int i = 0; i < kOwn; ++i) {
+    const int d = first_d + i, xr = x_end - 1 - dmin - d;
+    if (d < kD - 1 && xr >= 0) atomicMin(right_key[row + xr], acc[i]);
+  }
+  // Right pixels past W - 1 - dmin keep the fill: no candidate.
+#else
   // The row's end: every acc_d is complete for xr = W - 1 - dmin - d (d = num_disparities - 1 was
   // written above); right pixels past W - 1 - dmin have no candidate.
   if (x_end == W) {
@@ -201,4 +232,5 @@ void main() {
       if (xr >= 0) right_key[row + xr] = kNone;
     }
   }
+#endif
 }

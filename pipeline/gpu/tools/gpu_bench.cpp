@@ -9,11 +9,16 @@
 //   rutd-gpu-bench [--device NAME|INDEX] [--runs N] [--warmup N] [--sizes 640x480,1280x1024,640x48]
 //                  [--paths 2,4,8] [--disparities 64,128] [--left L.pgm --right R.pgm]
 //                  [--dic columns|pixels|none] [--input raw|rectified] [--segment 0,64,...] [--run-in N]
-//                  [--wta-segment 0,128,...] [--aggregate int|half] [--json]
+//                  [--wta-segment 0,128,...] [--aggregate int|half] [--aggregate-lanes 0,8,...]
+//                  [--dic-window-subgroups 0,1,4,...] [--json]
 // --segment: rows aggregated in segments of N px with a --run-in px run-in (SgmConfig::segment; 0, the
 // default, whole rows); a list times each. --wta-segment: the winner-takes-all's rows walked in segments
 // (VulkanSgmOptions::wta_segment; 0 whole rows, -1 the default: 128 px on a GPU, whole rows on a CPU device).
 // --aggregate half: the aggregation's step in packed half floats (VulkanSgmOptions::aggregate_half).
+// --aggregate-lanes: the invocations that walk one line of the aggregation (VulkanSgmOptions::aggregate_lanes;
+// 0, the default, the device's default); a list times each. --dic-window-subgroups: the subgroups that
+// share a DIC column window (VulkanSgmOptions::dic_window_subgroups; 0, the default, the automatic choice);
+// a list times each.
 // --input raw (the default, what the daemon runs): each frame uploads raw images and rectifies them on the
 // device through maps of a slightly rotated and scaled rig (a strip of under 480 rows is the centre of a
 // 480-row raw image, and only the raw rows its maps reach are uploaded), and downloads the rectified strips
@@ -31,15 +36,21 @@
 // rectify_ms, census_ms, aggregate_ms, wta_ms, lr_median_ms, dic_ms, download_ms (device times; 0 without
 // timestamps) and end_to_end_ms (host), hz (1000 / median end to end), two_in_flight_hz, band_ms (raw
 // input; else null), and the end to end's two host parts: host_submit_ms (pack into the upload buffer and
-// submit) and host_collect_ms (wait for the frame, decode the disparity, copy the strips out).
+// submit) and host_collect_ms (wait for the frame, decode the disparity, copy the strips out), the latter
+// in turn as host_wait_ms (until the frame is complete) and host_decode_ms (decode and copy out of the
+// mapped download buffer); aggregate_lanes and dic_window_subgroups (as resolved) and host_cached
+// (GpuDeviceInfo).
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <fstream>
 #include <memory>
 #include <sstream>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "gpu/vulkan_sgm.hpp"
@@ -135,11 +146,21 @@ RectifyMaps rig_maps(int w, int h, int raw_w, int raw_h) {
   return m;
 }
 
+// Every triple (a, b, c) of a in as, b in bs, c in cs.
+std::vector<std::array<int, 3>> combinations(const std::vector<int>& as, const std::vector<int>& bs,
+                                             const std::vector<int>& cs) {
+  std::vector<std::array<int, 3>> out;
+  for (const int a : as)
+    for (const int b : bs)
+      for (const int c : cs) out.push_back({a, b, c});
+  return out;
+}
+
 struct Options {
   std::string device, sizes = "640x480,1280x1024,640x48", paths = "2,4,8", disparities = "64,128", left_pgm, right_pgm;
   int runs = 200, warmup = 20;
   std::string dic = "columns", input = "raw", aggregate = "int";
-  std::vector<int> segments{0}, wta_segments{VulkanSgmOptions::kWtaSegmentAuto};
+  std::vector<int> segments{0}, wta_segments{VulkanSgmOptions::kWtaSegmentAuto}, lanes{0}, dic_subgroups{0};
   int run_in = 64;
   bool json = false;
 };
@@ -148,7 +169,7 @@ struct Options {
 struct Times {
   std::vector<double> upload, rectify, census, aggregate, wta, lr_median, dic, download, total, band;
   // Host: pack and submit, then wait for the frame, decode the disparity and copy the strips out.
-  std::vector<double> submit, collect;
+  std::vector<double> submit, collect, wait, decode;
   double flight_hz = 0;
 };
 
@@ -174,6 +195,8 @@ int main(int argc, char** argv) {
     else if (a == "--run-in" && more) o.run_in = std::atoi(argv[++i]);
     else if (a == "--wta-segment" && more) o.wta_segments = split_ints(argv[++i]);
     else if (a == "--aggregate" && more) o.aggregate = argv[++i];
+    else if (a == "--aggregate-lanes" && more) o.lanes = split_ints(argv[++i]);
+    else if (a == "--dic-window-subgroups" && more) o.dic_subgroups = split_ints(argv[++i]);
     else if (a == "--json") o.json = true;
     else {
       std::fprintf(stderr, "usage: see the comment at the top of gpu_bench.cpp\n");
@@ -224,9 +247,11 @@ int main(int argc, char** argv) {
   for (const std::string& size : split(o.sizes)) {
     const int w = std::atoi(size.c_str()), h = std::atoi(size.substr(size.find('x') + 1).c_str());
     for (const int nd : split_ints(o.disparities)) {
-      for (const int wta_segment : o.wta_segments) {
+      for (const auto& [wta_segment, lanes, dic_subgroups] : combinations(o.wta_segments, o.lanes, o.dic_subgroups)) {
         VulkanSgmOptions options;
         options.wta_segment = wta_segment;
+        options.aggregate_lanes = lanes;
+        options.dic_window_subgroups = dic_subgroups;
         options.aggregate_half = o.aggregate == "half";
         std::unique_ptr<VulkanSgm> sgm;
         try {
@@ -270,8 +295,24 @@ int main(int argc, char** argv) {
         const auto submit = [&](const SgmConfig& params, const DicKernelConfig* dic, int& ticket) {
           return raw ? sgm->submit_raw(l, r, &band, params, dic, ticket) : sgm->submit(l, r, band, params, dic, ticket);
         };
+        // As VulkanSgm::collect's float form, with the wait and the decode timed apart (wait_ms, decode_ms).
+        double wait_ms = 0, decode_ms = 0;
         const auto collect = [&](int ticket, GpuStageTimes* t) {
-          return sgm->collect(ticket, out.data(), static_cast<std::size_t>(w), t, raw ? &strips : nullptr);
+          const auto t0 = Clock::now();
+          FrameOutput frame;
+          const GpuStatus s = sgm->collect(ticket, frame, t);
+          wait_ms = ms_since(t0);
+          if (s != GpuStatus::Ok) return s;
+          const auto t1 = Clock::now();
+          for (int y = 0; y < frame.disparity.height; ++y)
+            frame.disparity.decode_row(y, out.data() + static_cast<std::size_t>(y) * static_cast<std::size_t>(w));
+          if (raw)
+            for (auto [dst, src] : {std::pair{strip_l.data(), frame.strip_left}, std::pair{strip_r.data(), frame.strip_right}})
+              for (int y = 0; y < h; ++y)
+                std::memcpy(dst + static_cast<std::size_t>(y) * static_cast<std::size_t>(w),
+                            src + static_cast<std::size_t>(y) * frame.strip_stride, static_cast<std::size_t>(w));
+          decode_ms = ms_since(t1);
+          return s;
         };
         for (const int paths : split_ints(o.paths)) {
           for (const int segment : o.segments) {
@@ -316,6 +357,8 @@ int main(int argc, char** argv) {
               t.total.push_back(ms);
               t.submit.push_back(submit_ms);
               t.collect.push_back(ms - submit_ms);
+              t.wait.push_back(wait_ms);
+              t.decode.push_back(decode_ms);
             }
             // Two in flight: submit frame i+1, then collect frame i.
             int tickets[2] = {0, 0};
@@ -355,14 +398,18 @@ int main(int argc, char** argv) {
                   "\"aggregate\":\"%s\",\"dic\":\"%s\",\"input\":\"%s\",\"runs\":%d,\"warmup\":%d,\"upload_ms\":%s,"
                   "\"rectify_ms\":%s,\"census_ms\":%s,\"aggregate_ms\":%s,\"wta_ms\":%s,\"lr_median_ms\":%s,"
                   "\"dic_ms\":%s,\"download_ms\":%s,\"end_to_end_ms\":%s,\"hz\":%.1f,\"two_in_flight_hz\":%.1f,"
-                  "\"band_ms\":%s,\"host_submit_ms\":%s,\"host_collect_ms\":%s}\n",
+                  "\"band_ms\":%s,\"host_submit_ms\":%s,\"host_collect_ms\":%s,\"host_wait_ms\":%s,"
+                  "\"host_decode_ms\":%s,\"aggregate_lanes\":%d,\"dic_window_subgroups\":%d,\"host_cached\":%s}\n",
                   json_escaped(info.name).c_str(), info.type.c_str(), json_escaped(info.driver).c_str(),
                   info.subgroup_size, w, h, nd, paths, segment, o.run_in, sgm->wta_segment(), o.aggregate.c_str(),
                   o.dic.c_str(), o.input.c_str(), o.runs, o.warmup, json_stat(t.upload).c_str(),
                   json_stat(t.rectify).c_str(), json_stat(t.census).c_str(), json_stat(t.aggregate).c_str(),
                   json_stat(t.wta).c_str(), json_stat(t.lr_median).c_str(), json_stat(t.dic).c_str(),
                   json_stat(t.download).c_str(), json_stat(t.total).c_str(), 1000.0 / e2e, t.flight_hz,
-                  json_stat(t.band).c_str(), json_stat(t.submit).c_str(), json_stat(t.collect).c_str());
+                  json_stat(t.band).c_str(), json_stat(t.submit).c_str(), json_stat(t.collect).c_str(),
+                  json_stat(t.wait).c_str(), json_stat(t.decode).c_str(), sgm->aggregate_lanes(),
+                  dic_ptr ? sgm->dic_subgroups_per_window(*dic_ptr) : 0,
+                  info.host_cached ? "true" : "false");
             } else {
               std::printf(
                   "%-10s %5d %5d %4d %4d | %7.3f %7.3f %7.3f %9.3f %7.3f %7.3f %7.3f %8.3f | %9.3f %8.3f %8.0f | %9.0f "

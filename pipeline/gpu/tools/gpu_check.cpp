@@ -17,9 +17,12 @@
 // device; a driver whose devices cannot run the matcher is a failure) or, with --aggregate-half, a device
 // without shaderFloat16. Needs only the Vulkan loader at run time.
 //   rutd-gpu-check [--device NAME|INDEX] [--seed N] [--cases N] [--aggregate-threads N] [--wta-threads N]
-//                  [--aggregate-half]
+//                  [--aggregate-half] [--aggregate-lanes N] [--dic-window-subgroups N]
 // --aggregate-threads, --wta-threads: the aggregation's and the winner-takes-all's workgroup sizes
-// (VulkanSgmOptions); several subgroups' worth checks their shared-memory paths. --aggregate-half: the
+// (VulkanSgmOptions); several subgroups' worth checks their shared-memory paths. --aggregate-lanes: the
+// invocations of one aggregation line (VulkanSgmOptions::aggregate_lanes; with fewer than the workgroup,
+// several lines a workgroup). --dic-window-subgroups: the subgroups that share a column window
+// (VulkanSgmOptions::dic_window_subgroups; by default several only on tall row blocks). --aggregate-half: the
 // aggregation's step in packed half floats (VulkanSgmOptions::aggregate_half). Every third case walks
 // the winner-takes-all's rows in segments (VulkanSgmOptions::wta_segment) of a random length, drawn from
 // a generator of its own so that the cases are those of earlier builds.
@@ -145,7 +148,7 @@ int main(int argc, char** argv) {
   std::string device;
   unsigned seed = 1;
   int cases = 12;
-  int aggregate_threads = 0, wta_threads = 0;
+  int aggregate_threads = 0, wta_threads = 0, aggregate_lanes = 0, dic_window_subgroups = 0;
   bool aggregate_half = false;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
@@ -155,10 +158,12 @@ int main(int argc, char** argv) {
     else if (a == "--aggregate-threads" && i + 1 < argc) aggregate_threads = std::atoi(argv[++i]);
     else if (a == "--wta-threads" && i + 1 < argc) wta_threads = std::atoi(argv[++i]);
     else if (a == "--aggregate-half") aggregate_half = true;
+    else if (a == "--aggregate-lanes" && i + 1 < argc) aggregate_lanes = std::atoi(argv[++i]);
+    else if (a == "--dic-window-subgroups" && i + 1 < argc) dic_window_subgroups = std::atoi(argv[++i]);
     else {
       std::fprintf(stderr,
                    "usage: %s [--device NAME|INDEX] [--seed N] [--cases N] [--aggregate-threads N] [--wta-threads N] "
-                   "[--aggregate-half]\n",
+                   "[--aggregate-half] [--aggregate-lanes N] [--dic-window-subgroups N]\n",
                    argv[0]);
       return 2;
     }
@@ -187,6 +192,8 @@ int main(int argc, char** argv) {
   options.aggregate_threads = aggregate_threads;
   options.wta_threads = wta_threads;
   options.aggregate_half = aggregate_half;
+  options.aggregate_lanes = aggregate_lanes;
+  options.dic_window_subgroups = dic_window_subgroups;
   std::mt19937 segment_rng(seed * 7919u + 1u);
   std::unique_ptr<VulkanSgm> sgm;
   int failures = 0;
@@ -235,10 +242,11 @@ int main(int argc, char** argv) {
       return 1;
     }
     if (k == 0)
-      std::printf("device %d: %s%s%s%s\n", sgm->device().index, describe(sgm->device()).c_str(),
+      std::printf("device %d: %s%s%s%s; aggregation lines of %d lanes\n", sgm->device().index,
+                  describe(sgm->device()).c_str(),
                   aggregate_threads > 0 ? ("; aggregation workgroup " + std::to_string(aggregate_threads)).c_str() : "",
                   wta_threads > 0 ? ("; winner-takes-all workgroup " + std::to_string(wta_threads)).c_str() : "",
-                  aggregate_half ? "; aggregation in half floats" : "");
+                  aggregate_half ? "; aggregation in half floats" : "", sgm->aggregate_lanes());
     // Gentle waves down two cases in three, so that column windows spanning many rows refine; the rest
     // keep waves that reject many of them.
     // Raw cases: the pair is rendered a little larger than the strip (or smaller: the maps then reach
@@ -327,7 +335,7 @@ int main(int argc, char** argv) {
                               std::to_string(params.segment_run_in) + " px segments")
                                  .c_str()
                            : "",
-        options.wta_segment > 0 ? (" WTA in " + std::to_string(options.wta_segment) + " px segments").c_str() : "",
+        sgm->wta_segment() > 0 ? (" WTA in " + std::to_string(sgm->wta_segment()) + " px segments").c_str() : "",
         params.p1, params.p2, params.uniqueness, params.lr_max_diff, params.median ? 1 : 0);
     if (s != GpuStatus::Ok) {
       std::printf("FAIL (%s)\n", std::string(to_string(s)).c_str());

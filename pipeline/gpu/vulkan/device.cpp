@@ -162,6 +162,12 @@ GpuDeviceInfo describe(VkPhysicalDevice pd, int index) {
   info.type = type_name(props.properties.deviceType);
   info.subgroup_size = sub.subgroupSize;
   info.driver = driver_of(pd, props.properties);
+  VkPhysicalDeviceMemoryProperties memory;
+  vkGetPhysicalDeviceMemoryProperties(pd, &memory);
+  constexpr VkMemoryPropertyFlags cached = VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT |
+                                           VK_MEMORY_PROPERTY_HOST_CACHED_BIT;
+  for (std::uint32_t i = 0; i < memory.memoryTypeCount; ++i)
+    if ((memory.memoryTypes[i].propertyFlags & cached) == cached) info.host_cached = true;
   const VkSubgroupFeatureFlags need = VK_SUBGROUP_FEATURE_BASIC_BIT | VK_SUBGROUP_FEATURE_ARITHMETIC_BIT |
                                       VK_SUBGROUP_FEATURE_SHUFFLE_BIT | VK_SUBGROUP_FEATURE_SHUFFLE_RELATIVE_BIT;
   // 16-bit storage: the downloaded disparity (DisparityView) is written 16 bits a pixel.

@@ -124,6 +124,8 @@ VkResult VulkanSgm::Impl::record(int slot, Input input, SgmBand band, const SgmC
   vkCmdCopyBuffer(cb, up.buffer, (is_raw ? f.raw_left : f.image_left).buffer, 1, &copy);
   copy.srcOffset = upload_half;
   vkCmdCopyBuffer(cb, up.buffer, (is_raw ? f.raw_right : f.image_right).buffer, 1, &copy);
+  // A segmented winner-takes-all gathers the right view by atomicMin (wta.comp).
+  if (wta.segmented()) vkCmdFillBuffer(cb, f.right_key.buffer, 0, VK_WHOLE_SIZE, vk::kNoMatch);
   vk::barrier(cb, transfer, compute);
   stamp(cb, queries, slot, 1);
   const VkDeviceSize strips_at = fixed_bytes();
@@ -174,7 +176,7 @@ VkResult VulkanSgm::Impl::record(int slot, Input input, SgmBand band, const SgmC
   vk::barrier(cb, compute, compute | transfer);
   stamp(cb, queries, slot, 6);
   if (dic_params) {
-    dic.record(cb, slot, strip_size(), *dic_params, fixed);
+    if ((r = dic.record(cb, slot, strip_size(), *dic_params, fixed)) != VK_SUCCESS) return r;
     vk::barrier(cb, compute, transfer);
   }
   stamp(cb, queries, slot, 7);

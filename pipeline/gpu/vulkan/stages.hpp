@@ -92,9 +92,10 @@ class CostStage {
 
 class AggregateStage {
  public:
-  // threads: the workgroup size (the device's subgroup size for the fast path); half: the step in packed
-  // half floats (the device's shaderFloat16), else in 32-bit integers.
-  void create(const KernelFactory& f, int threads, bool half);
+  // threads: the workgroup size (the device's subgroup size for the fast path); lanes: the invocations of
+  // one line (threads, or a power of two dividing it and the device's subgroup size); half: the step in
+  // packed half floats (the device's shaderFloat16), else in 32-bit integers.
+  void create(const KernelFactory& f, int threads, int lanes, bool half);
   void rebind(const KernelFactory& f) const { f.rebind(kernel_); }
   // Builds the pipeline of a new disparity count on its first use: VK_SUCCESS or that build's error.
   VkResult record(VkCommandBuffer cb, int slot, ImageSize image, SgmBand band, const SgmConfig& params);
@@ -102,7 +103,7 @@ class AggregateStage {
 
  private:
   Kernel kernel_;
-  int threads_ = 0;
+  int threads_ = 0, lanes_ = 0;
 };
 
 class WtaStage {
@@ -114,6 +115,8 @@ class WtaStage {
   // Builds the pipeline of a new disparity count or number of directions on its first use: VK_SUCCESS or
   // that build's error.
   VkResult record(VkCommandBuffer cb, int slot, ImageSize image, SgmBand band, const SgmConfig& params);
+  // Rows in segments: FrameBuffers::right_key must hold 0xFFFFFFFF in every word before record()'s dispatch.
+  bool segmented() const { return segment_ > 0; }
   void destroy(const Device& device) { vk::destroy(device, kernel_); }
 
  private:
@@ -136,18 +139,23 @@ class LrMedianStage {
 
 class DicStage {
  public:
-  // subgroup_size: the device's; one window per subgroup.
-  void create(const KernelFactory& f, std::uint32_t subgroup_size);
+  // subgroup_size: the device's; one window per subgroup, or with column windows window_subgroups of
+  // them a window (0: subgroups_per_window()'s choice).
+  void create(const KernelFactory& f, std::uint32_t subgroup_size, int window_subgroups);
   void rebind(const KernelFactory& f) const;
   // The B-spline coefficients of both images (with the census: it reads the same images).
   void record_prefilter(VkCommandBuffer cb, int slot, ImageSize image) const;
-  // Writes every pixel of FrameBuffers::fixed in `fixed`.
-  void record(VkCommandBuffer cb, int slot, ImageSize image, const DicKernelConfig& d, FixedPoint fixed) const;
+  // Writes every pixel of FrameBuffers::fixed in `fixed`. Builds the pipeline of a new number of subgroups
+  // a window on its first use: VK_SUCCESS or that build's error.
+  VkResult record(VkCommandBuffer cb, int slot, ImageSize image, const DicKernelConfig& d, FixedPoint fixed);
+  // The subgroups that share a window of `d` on an image `height` rows tall.
+  int subgroups_per_window(const DicKernelConfig& d, int height) const;
   void destroy(const Device& device);
 
  private:
   Kernel bspline_, pixels_, columns_;  // dic.comp in its two modes
   std::uint32_t subgroup_size_ = 1;
+  int window_subgroups_ = 0;
 };
 
 }  // namespace rutd::gpu::vk

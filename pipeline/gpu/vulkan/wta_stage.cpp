@@ -1,5 +1,6 @@
 // Winner-takes-all (shaders/wta.comp): workgroup (segment, row), a row walker of `threads` invocations, a
-// pipeline per disparity count and number of directions (specialization constants).
+// pipeline per disparity count and number of directions (specialization constants); whole rows, or
+// segments that gather the right view by atomicMin (the wta_segmented build).
 #include "stages.hpp"
 
 namespace rutd::gpu::vk {
@@ -7,6 +8,9 @@ namespace {
 
 const std::uint32_t kWtaSpv[] =
 #include "wta.comp.inc"
+    ;
+const std::uint32_t kWtaSegmentedSpv[] =
+#include "wta_segmented.comp.inc"
     ;
 
 // words: words of four byte costs per pixel (cost_words()); segment: px per workgroup, 0 whole rows.
@@ -25,8 +29,10 @@ std::vector<std::int32_t> wta_spec(int threads, int disparities, int paths) {
 void WtaStage::create(const KernelFactory& f, int threads, int segment) {
   threads_ = threads;
   segment_ = segment;
+  // Whole rows and segmented rows are separate builds (wta.comp).
   kernel_ = f.make(
-      kWtaSpv, sizeof kWtaSpv, sizeof(WtaPush),
+      segment > 0 ? kWtaSegmentedSpv : kWtaSpv, segment > 0 ? sizeof kWtaSegmentedSpv : sizeof kWtaSpv,
+      sizeof(WtaPush),
       [](const FrameBuffers& b) -> Bindings {
         std::vector<const Buffer*> costs;
         for (const Buffer& c : b.costs) costs.push_back(&c);

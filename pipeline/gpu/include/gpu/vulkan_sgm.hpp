@@ -43,6 +43,9 @@ struct GpuDeviceInfo {
   std::uint32_t subgroup_size = 0;
   bool usable = false;  // Vulkan 1.1, subgroup arithmetic and shuffles in compute, 16-bit storage buffers
   bool half = false;    // shaderFloat16: VulkanSgmOptions::aggregate_half can run
+  // A host-visible memory type is cached: the download buffer is read at memory speed (without it, at the
+  // speed of uncached reads, far slower; the matcher takes a cached type where there is one).
+  bool host_cached = false;
 };
 
 // Every physical device the loader reports. Throws GpuError when there is no Vulkan loader or instance.
@@ -112,16 +115,31 @@ struct VulkanSgmOptions {
   // several subgroups' worth to run its shared-memory path, which devices that choose a smaller subgroup
   // than they report take.
   int aggregate_threads = 0;
+  // The invocations that walk one line of the aggregation (aggregate.comp): 0 (the default) picks
+  // kAggregateLanesGpu on a GPU and the whole workgroup on a CPU device; else a power of two no larger
+  // than the workgroup (larger: the workgroup) and dividing the device's subgroup size (else the
+  // constructor throws). Fewer lanes: more disparities each and several lines a workgroup. The path
+  // costs are the same either way. On an H100 (README, "The GPU engine") 16 lanes of a 32-wide subgroup
+  // took 0.414 ms for a 640x480 frame's 8 paths and 128 disparities, whole subgroups 0.436, 8 lanes 0.54.
+  static constexpr int kAggregateLanesGpu = 16;
+  int aggregate_lanes = 0;
   // The winner-takes-all's workgroup size, 0..128, as aggregate_threads; and the px of a row one of its
-  // workgroups walks (0: whole rows; else >= 16, each starting num_disparities - 1 px early for the right
-  // view), so that a device walks a row's segments in parallel. The output is the same either way.
-  // kWtaSegmentAuto (the default): kWtaSegmentGpu px on a GPU, whole rows on a CPU device (lavapipe),
-  // where segments only add the run-in's work. On an H100 (README, "The GPU engine") 128-px segments cut
-  // the winner-takes-all of the 48-row strip from 0.36 to 0.11 ms and of a 640x480 frame as measured there.
+  // workgroups walks (0: whole rows; else >= 16), so that a device walks a row's segments in parallel: the
+  // segments share no work, and gather the right view by atomicMin into a buffer filled before
+  // (wta.comp). The output is the same either way. kWtaSegmentAuto (the default): kWtaSegmentGpu px on a
+  // GPU, whole rows on a CPU device (lavapipe), which has cores enough for the rows. On an H100 16-px
+  // segments took 0.146 ms for a 640x480 frame (whole rows 0.407) and 0.025 ms for the 48-row strip.
+  // A wta_threads larger than the device's subgroup walks whole rows whatever wta_segment says
+  // (vulkan_sgm.cpp: segments in a workgroup of several subgroups failed a check on an H100).
   static constexpr int kWtaSegmentAuto = -1;
-  static constexpr int kWtaSegmentGpu = 128;
+  static constexpr int kWtaSegmentGpu = 16;
   int wta_threads = 0;
   int wta_segment = kWtaSegmentAuto;
+  // The subgroups that share one column window of the DIC (dic.comp): 0 (the default) on a GPU 128
+  // invocations' worth where a row block has 32 rows or more (the strip's whole-height windows, few and
+  // tall), else one subgroup a window, and one on a CPU device; 1..16 that many wherever column windows
+  // run (the per-pixel mode keeps one). The refinement is the same to float rounding (the sums' order).
+  int dic_window_subgroups = 0;
   // The aggregation's step in packed half floats, two disparities an operation (GpuDeviceInfo::half; else
   // the constructor throws); the same path costs exactly. Off: 32-bit integers.
   bool aggregate_half = false;
@@ -148,6 +166,9 @@ class VulkanSgm {
   int max_disparities() const;
   // The winner-takes-all's segment in use (VulkanSgmOptions::wta_segment, kWtaSegmentAuto resolved).
   int wta_segment() const;
+  int aggregate_lanes() const;  // VulkanSgmOptions::aggregate_lanes as resolved for the device
+  // The subgroups that share one DIC window of `d` on this matcher's images (dic_window_subgroups resolved).
+  int dic_subgroups_per_window(const DicKernelConfig& d) const;
 
   // Buffers for a new size and disparity count, on the same device with the same kernels (a device is
   // opened once per matcher): waits for the frames in flight, which are then lost, and forgets the
