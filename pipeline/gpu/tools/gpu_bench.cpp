@@ -307,7 +307,8 @@ int main(int argc, char** argv) {
           for (int y = 0; y < frame.disparity.height; ++y)
             frame.disparity.decode_row(y, out.data() + static_cast<std::size_t>(y) * static_cast<std::size_t>(w));
           if (raw)
-            for (auto [dst, src] : {std::pair{strip_l.data(), frame.strip_left}, std::pair{strip_r.data(), frame.strip_right}})
+            for (auto [dst, src] :
+                 {std::pair{strip_l.data(), frame.strip_left}, std::pair{strip_r.data(), frame.strip_right}})
               for (int y = 0; y < h; ++y)
                 std::memcpy(dst + static_cast<std::size_t>(y) * static_cast<std::size_t>(w),
                             src + static_cast<std::size_t>(y) * frame.strip_stride, static_cast<std::size_t>(w));
@@ -408,8 +409,7 @@ int main(int argc, char** argv) {
                   json_stat(t.download).c_str(), json_stat(t.total).c_str(), 1000.0 / e2e, t.flight_hz,
                   json_stat(t.band).c_str(), json_stat(t.submit).c_str(), json_stat(t.collect).c_str(),
                   json_stat(t.wait).c_str(), json_stat(t.decode).c_str(), sgm->aggregate_lanes(),
-                  dic_ptr ? sgm->dic_subgroups_per_window(*dic_ptr) : 0,
-                  info.host_cached ? "true" : "false");
+                  dic_ptr ? sgm->dic_subgroups_per_window(*dic_ptr) : 0, info.host_cached ? "true" : "false");
             } else {
               std::printf(
                   "%-10s %5d %5d %4d %4d | %7.3f %7.3f %7.3f %9.3f %7.3f %7.3f %7.3f %8.3f | %9.3f %8.3f %8.0f | %9.0f "

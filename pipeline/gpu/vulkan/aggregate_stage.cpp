@@ -43,8 +43,8 @@ void AggregateStage::create(const KernelFactory& f, int threads, int lanes, bool
   };
   // The one-line walk (lanes == threads) and the several-lines walk are separate builds (aggregate.comp).
   const bool lines = lanes < threads;
-  const std::uint32_t* spv = lines ? (half ? kAggregateLinesHalfSpv : kAggregateLinesSpv)
-                                   : (half ? kAggregateHalfSpv : kAggregateSpv);
+  const std::uint32_t* spv =
+      lines ? (half ? kAggregateLinesHalfSpv : kAggregateLinesSpv) : (half ? kAggregateHalfSpv : kAggregateSpv);
   const std::size_t bytes = lines ? (half ? sizeof kAggregateLinesHalfSpv : sizeof kAggregateLinesSpv)
                                   : (half ? sizeof kAggregateHalfSpv : sizeof kAggregateSpv);
   kernel_ = f.make(spv, bytes, sizeof(AggregatePush), bindings, aggregate_spec(threads, lanes, 128),

@@ -66,8 +66,7 @@ int DicStage::subgroups_per_window(const DicKernelConfig& d, int height) const {
   return tall ? std::max(1, 128 / static_cast<int>(subgroup_size_)) : 1;
 }
 
-VkResult DicStage::record(VkCommandBuffer cb, int slot, ImageSize image, const DicKernelConfig& d,
-                          FixedPoint fixed) {
+VkResult DicStage::record(VkCommandBuffer cb, int slot, ImageSize image, const DicKernelConfig& d, FixedPoint fixed) {
   // One subgroup per window (dic.comp), at most 64 / subgroup_size of them per workgroup; a subgroup
   // smaller than the reported size only means fewer workgroups would have done.
   const int per_group = std::max(1, 64 / static_cast<int>(subgroup_size_));

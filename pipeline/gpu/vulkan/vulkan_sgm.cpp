@@ -144,7 +144,9 @@ void VulkanSgm::Impl::setup() {
   // A CPU device (lavapipe) runs a workgroup's barriers as switches between its invocations: one
   // subgroup a window there (tall windows of a strip took 10 times as long in several).
   dic.create(f, dev.subgroup_size(),
-             options.dic_window_subgroups > 0 ? options.dic_window_subgroups : dev.info().type == "cpu" ? 1 : 0);
+             options.dic_window_subgroups > 0 ? options.dic_window_subgroups
+             : dev.info().type == "cpu"       ? 1
+                                              : 0);
 }
 
 namespace {
@@ -171,8 +173,7 @@ VulkanSgm::VulkanSgm(const std::string& device, int width, int height, int max_d
     throw GpuError("VulkanSgm: aggregate_lanes " + std::to_string(options.aggregate_lanes) +
                    " is not 0 or a power of two");
   if (options.dic_window_subgroups < 0 || options.dic_window_subgroups > 16)
-    throw GpuError("VulkanSgm: dic_window_subgroups " + std::to_string(options.dic_window_subgroups) +
-                   " is not 0..16");
+    throw GpuError("VulkanSgm: dic_window_subgroups " + std::to_string(options.dic_window_subgroups) + " is not 0..16");
   if (options.wta_threads < 0 || options.wta_threads > 128)
     throw GpuError("VulkanSgm: wta_threads " + std::to_string(options.wta_threads) + " is not 0..128");
   if (options.wta_segment != VulkanSgmOptions::kWtaSegmentAuto && options.wta_segment != 0 && options.wta_segment < 16)

@@ -31,8 +31,7 @@ void WtaStage::create(const KernelFactory& f, int threads, int segment) {
   segment_ = segment;
   // Whole rows and segmented rows are separate builds (wta.comp).
   kernel_ = f.make(
-      segment > 0 ? kWtaSegmentedSpv : kWtaSpv, segment > 0 ? sizeof kWtaSegmentedSpv : sizeof kWtaSpv,
-      sizeof(WtaPush),
+      segment > 0 ? kWtaSegmentedSpv : kWtaSpv, segment > 0 ? sizeof kWtaSegmentedSpv : sizeof kWtaSpv, sizeof(WtaPush),
       [](const FrameBuffers& b) -> Bindings {
         std::vector<const Buffer*> costs;
         for (const Buffer& c : b.costs) costs.push_back(&c);
