@@ -16,6 +16,7 @@ std::string_view to_string(RutStatus status) noexcept {
     case RutStatus::BottomNotSeen: return "BOTTOM_NOT_SEEN";
     case RutStatus::Vegetation: return "VEGETATION";
     case RutStatus::Uncertain: return "UNCERTAIN";
+    case RutStatus::Unsynchronised: return "UNSYNCHRONISED";
   }
   return "UNKNOWN";
 }

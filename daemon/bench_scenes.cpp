@@ -112,7 +112,7 @@ SceneOutcome measure_scene(const MatrixScene& scene, const BenchScenesOptions& o
     FrameOutcome f;
     f.index = static_cast<std::uint64_t>(i);
     f.settings = renderer.render(f.index, frame);
-    f.m = measurer.measure(frame.left, frame.right);
+    f.m = measurer.measure(frame.left, frame.right, frame.skew_ns);
     f.truth = renderer.truth(f.index);
     const double error = std::abs(f.m.depth_mm - f.truth.depth_mm);
     if (f.m.status == RutStatus::Ok) {
@@ -122,7 +122,10 @@ SceneOutcome measure_scene(const MatrixScene& scene, const BenchScenesOptions& o
       ++out.refused;
       out.refused_within += error <= kToleranceMm;
       ++out.refusals[std::string(to_string(f.m.status))];
-      out.refused_expected += (f.m.conditions & expected) != 0;
+      // The expected condition, or a status the scene calls for (UNSYNCHRONISED: no condition bit).
+      const std::string status(to_string(f.m.status));
+      out.refused_expected += (f.m.conditions & expected) != 0 ||
+                              std::find(scene.expect.begin(), scene.expect.end(), status) != scene.expect.end();
       for (int k = 0; k < 8; ++k) out.flag_count[k] += (f.m.conditions & kConditions[k].bit) != 0;
     }
     out.frames.push_back(f);

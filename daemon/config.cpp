@@ -323,6 +323,7 @@ void read_conditions(Section s, ConditionConfig& c) {
       .get<double>("flat_min_width_mm", c.flat_min_width_mm, in_range(0.1, 1000.0))
       .get<double>("flat_min_unseen_mm", c.flat_min_unseen_mm, in_range(0.0, 1000.0))
       .get<double>("max_vertical_disparity_px", c.max_vertical_disparity_px, in_range(0.01, 32.0))
+      .get<double>("unsynchronised_skew_ms", c.unsynchronised_skew_ms, in_range(0.0, 1000.0))
       .get<double>("vegetation_unmatched_share", c.vegetation_unmatched_share, in_range(0.01, 1.0))
       .get<int>("vegetation_min_blocks", c.vegetation_min_blocks, in_range(1, 1000));
   s.finish();

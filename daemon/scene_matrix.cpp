@@ -238,7 +238,7 @@ void add_skew(std::vector<MatrixScene>& out) {
     std::string s = rig_and_rut(d, texture, depth, 3000 + i) + draw_option(d, "--speed", 1000, 8000, 0);
     const double sign = d.chance(0.5) ? 1 : -1;
     s += fmt::format(" --right-delay-ms {:.2f}", sign * d.uniform(0.3, 8));
-    out.push_back({fmt::format("skew-{}-{:02d}", texture, i), "skew", "skew", {}, s});
+    out.push_back({fmt::format("skew-{}-{:02d}", texture, i), "skew", "skew", {"UNSYNCHRONISED"}, s});
   }
 }
 

@@ -16,13 +16,14 @@ const std::array<std::uint8_t, kRutStatusCount> kStatusSeverity = {
     6,   // TooFewPoints
     7,   // NoGround
     5,   // RutAtEdge
-    11,  // NoMeasurement
-    10,  // LensObstructed
+    12,  // NoMeasurement
+    11,  // LensObstructed
     8,   // BadExposure
-    9,   // CalibrationDrift
+    10,  // CalibrationDrift
     4,   // BottomNotSeen
     3,   // Vegetation
     2,   // Uncertain
+    9,   // Unsynchronised
 };
 
 namespace {

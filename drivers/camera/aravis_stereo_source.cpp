@@ -525,6 +525,9 @@ bool AravisStereoSource::Impl::take_pair(StereoFrame& frame) {
   last_t_ns_ = t;
   last_pair_mono_ns_ = now;
   frame.t_ns = t;
+  // Free-running cameras share a PTP clock: their skew is real. Triggered pairs are paired by frame id,
+  // their timestamps need not share a clock: skew unknown (a hardware trigger exposes both at once).
+  frame.skew_ns = config_.sync == CameraSync::FreeRun ? pair.skew_ns : 0;
   frame.clock = ClockKind::Hardware;
   error_.clear();
   return true;

@@ -74,6 +74,7 @@ bool FrameRecorder::offer(const StereoFrame& frame) noexcept {
   }
   slot->seq = frame.seq;
   slot->t_ns = frame.t_ns;
+  slot->skew_ns = frame.skew_ns;
   slot->clock = frame.clock;
   queues_->ready.push(slot);  // wakes the writer
   return true;

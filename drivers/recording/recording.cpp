@@ -29,7 +29,11 @@ namespace {
 
 namespace fs = std::filesystem;
 
-constexpr std::string_view kHeader = "seq,t_ns,left,right";
+// skew_ns: the right camera's capture time minus the left's (StereoFrame::skew_ns). Recordings made before
+// it lack the column (kHeaderWithoutSkew): their pairs read as skew 0, unknown. The image paths stay last,
+// so that a line cut off by a crash ends in a path that names no file, never in a number that parses.
+constexpr std::string_view kHeader = "seq,t_ns,skew_ns,left,right";
+constexpr std::string_view kHeaderWithoutSkew = "seq,t_ns,left,right";
 constexpr const char* kFramesFile = "frames.csv";
 constexpr const char* kCalibrationFile = "calibration.yaml";
 
@@ -220,8 +224,8 @@ bool RecordingWriter::write_image(const cv::Mat& image, const char* side, std::u
 
 bool RecordingWriter::append_line(const StereoFrame& frame) {
   char numbers[48];
-  std::snprintf(numbers, sizeof numbers, "%llu,%lld,", static_cast<unsigned long long>(frame.seq),
-                static_cast<long long>(frame.t_ns));
+  std::snprintf(numbers, sizeof numbers, "%llu,%lld,%lld,", static_cast<unsigned long long>(frame.seq),
+                static_cast<long long>(frame.t_ns), static_cast<long long>(frame.skew_ns));
   line_.assign(numbers);
   line_.append(left_path_, dir_.size() + 1);
   line_.push_back(',');
@@ -273,9 +277,12 @@ ReplaySource::ReplaySource(const std::string& dir, IoFaults* faults)
   if (!csv_) throw InputError(frames_path_, "file", "cannot open: " + errno_text());
   if (!std::getline(csv_, line_)) throw InputError(frames_path_, "line 1", "missing header (file is empty)");
   if (!line_.empty() && line_.back() == '\r') line_.pop_back();
-  if (line_ != kHeader) {
-    throw InputError(frames_path_, "line 1", "header is '" + line_ + "' but must be '" + std::string(kHeader) + "'");
+  if (line_ != kHeader && line_ != kHeaderWithoutSkew) {
+    throw InputError(frames_path_, "line 1",
+                     "header is '" + line_ + "' but must be '" + std::string(kHeader) +
+                         "' (or, recorded before skew_ns, '" + std::string(kHeaderWithoutSkew) + "')");
   }
+  fields_ = line_ == kHeader ? 5 : 4;
 }
 
 bool ReplaySource::reject(const std::string& message) {
@@ -359,11 +366,13 @@ bool ReplaySource::check_pair(const StereoFrame& frame) {
 }
 
 ReplaySource::LineResult ReplaySource::read_pair(std::string_view line, StereoFrame& frame) {
-  std::string_view fields[4];
-  const std::size_t count = split_csv_fields(line, fields, 4);
-  if (count != 4) {
-    return bad(count < 4 ? LineResult::TooFewFields : LineResult::Bad,
-               "expected 4 fields (seq,t_ns,left,right), found " + std::to_string(count));
+  std::string_view fields[5];
+  const std::size_t count = split_csv_fields(line, fields, 5);
+  const auto expected = static_cast<std::size_t>(fields_);
+  if (count != expected) {
+    return bad(count < expected ? LineResult::TooFewFields : LineResult::Bad,
+               "expected " + std::to_string(expected) + " fields (" +
+                   std::string(expected == 5 ? kHeader : kHeaderWithoutSkew) + "), found " + std::to_string(count));
   }
   std::uint64_t seq = 0;
   std::int64_t t_ns = 0;
@@ -373,6 +382,11 @@ ReplaySource::LineResult ReplaySource::read_pair(std::string_view line, StereoFr
   if (!parse_csv_number(fields[1], t_ns)) {
     return bad(LineResult::Bad, "t_ns '" + std::string(fields[1]) + "' is not an integer");
   }
+  std::int64_t skew_ns = 0;
+  const std::size_t paths = fields_ == 5 ? 3 : 2;  // where the image paths begin
+  if (fields_ == 5 && !parse_csv_number(fields[2], skew_ns)) {
+    return bad(LineResult::Bad, "skew_ns '" + std::string(fields[2]) + "' is not an integer");
+  }
   if (have_previous_ && seq <= previous_seq_) {
     return bad(LineResult::Bad, "seq " + std::to_string(seq) + " does not increase (previous pair was seq " +
                                     std::to_string(previous_seq_) + ")");
@@ -381,12 +395,13 @@ ReplaySource::LineResult ReplaySource::read_pair(std::string_view line, StereoFr
     return bad(LineResult::Bad, "t_ns " + std::to_string(t_ns) + " goes backwards (previous pair was at " +
                                     std::to_string(previous_t_ns_) + ")");
   }
-  if (!load_image(fields[2], "left", frame.left) || !load_image(fields[3], "right", frame.right) ||
+  if (!load_image(fields[paths], "left", frame.left) || !load_image(fields[paths + 1], "right", frame.right) ||
       !check_pair(frame)) {
     return LineResult::Bad;
   }
   frame.seq = seq;
   frame.t_ns = t_ns;
+  frame.skew_ns = skew_ns;
   frame.clock = ClockKind::Monotonic;
   return LineResult::Ok;
 }

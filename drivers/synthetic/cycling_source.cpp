@@ -31,6 +31,7 @@ SourceStatus CyclingSource::next(StereoFrame& f) {
   src.right.copyTo(f.right);
   f.seq = seq_++;
   f.t_ns = monotonic_now_ns();
+  f.skew_ns = src.skew_ns;
   f.clock = ClockKind::Monotonic;
   return SourceStatus::Ok;
 }

@@ -528,6 +528,7 @@ CameraSettings SyntheticRenderer::render(std::uint64_t index, StereoFrame& out) 
   expose(Camera::Right, index, radiance[1], settings, out.right);
   out.seq = index;
   out.t_ns = std::llround(static_cast<double>(index) * 1e9 / params_.fps);
+  out.skew_ns = std::llround(params_.right_delay_ms * 1e6);
   out.clock = ClockKind::Monotonic;
   return settings;
 }

@@ -252,15 +252,17 @@ void validate(const ConditionConfig& c) {
   require(c.vegetation_unmatched_share > 0 && c.vegetation_unmatched_share <= 1, "vegetation_unmatched_share",
           "must be within (0, 1]");
   require(c.vegetation_min_blocks >= 1, "vegetation_min_blocks", "must be >= 1");
+  require(c.unsynchronised_skew_ms >= 0, "unsynchronised_skew_ms", "must be >= 0");
 }
 
 void check_frame(const cv::Mat& left, const cv::Mat& right, const cv::Mat& disparity, int row_begin, int row_end,
-                 const StereoGeometry& geometry, const RutGeometry& rut, DisparityBand band, const ConditionConfig& c,
-                 FrameCheckScratch& s, RutMeasurement& m) noexcept {
+                 const StereoGeometry& geometry, const RutGeometry& rut, DisparityBand band, std::int64_t skew_ns,
+                 const ConditionConfig& c, FrameCheckScratch& s, RutMeasurement& m) noexcept {
   if (!c.enabled || left.empty() || left.size() != right.size() || left.type() != CV_8UC1 || right.type() != CV_8UC1 ||
       row_end <= row_begin || left.cols < 2 * c.block_px)
     return;
-  bool bottom_hidden = false;  // this check's own water finding (a waterline read through is not one)
+  bool bottom_hidden = false;   // this check's own water finding (a waterline read through is not one)
+  bool unsynchronised = false;  // a known skew explains the views' disagreement (ConditionConfig)
   try {
     const cv::Mat* strips[2] = {&left, &right};
     StripStats stats[2];
@@ -381,7 +383,11 @@ void check_frame(const cv::Mat& left, const cv::Mat& right, const cv::Mat& dispa
     // block's chance match cannot raise it, a roll that moves only the strip's ends can.
     const VerticalOffsets v = vertical_disparity(left, right, disparity, row_begin, row_end, d0, band, c, s);
     m.vertical_disparity_px = v.largest;
-    if (v.found > 0 && 3 * v.beyond >= v.found) m.conditions |= kConditionCalibrationDrift;
+    const bool offset = v.found > 0 && 3 * v.beyond >= v.found;
+    // A known skew explains offsets beyond the limit, or views too far apart to correlate at all.
+    unsynchronised = std::abs(static_cast<double>(skew_ns)) * 1e-6 >= c.unsynchronised_skew_ms &&
+                     c.unsynchronised_skew_ms > 0 && (offset || v.found == 0);
+    if (offset && !unsynchronised) m.conditions |= kConditionCalibrationDrift;
 
     // Water / flat patch inside the rut opening, against the texture of the ground outside it.
     if (has_opening) {
@@ -412,6 +418,12 @@ void check_frame(const cv::Mat& left, const cv::Mat& right, const cv::Mat& dispa
   // Exposure first: a dark or clipped strip also looks flat and unmatched.
   if (m.conditions & (kConditionLowLight | kConditionOverexposed)) {
     m.status = RutStatus::BadExposure;
+  } else if (unsynchronised) {
+    // The views show the ground at two moments: what their comparison raised is the motion's.
+    m.conditions &= static_cast<std::uint8_t>(
+        ~(kConditionLeftObstructed | kConditionRightObstructed | kConditionVegetation | kConditionCalibrationDrift));
+    m.obstructed_left = m.obstructed_right = 0.0;
+    m.status = RutStatus::Unsynchronised;
   } else if (m.conditions & (kConditionLeftObstructed | kConditionRightObstructed)) {
     m.status = RutStatus::LensObstructed;
   } else if (m.conditions & kConditionCalibrationDrift) {

@@ -403,7 +403,7 @@ void StereoMeasurer::extract(FrameWork& w, RutWorkspace& workspace) const {
   w.measurement = extract_rut(w.section, config_.rut, workspace);
   read_through_water(w, workspace, measured, first);
   check_frame(w.left_strip, w.right_strip, w.disparity, first, first + strip_.rows, geometry_, workspace.geometry,
-              w.diag.band, config_.conditions, w.checks, w.measurement);
+              w.diag.band, w.frame.skew_ns, config_.conditions, w.checks, w.measurement);
   w.geometry = workspace.geometry;
   w.measured = true;
   w.diag.rut_ms = ms_since(t0);
@@ -434,10 +434,11 @@ PublishedFrame published_frame(const FrameWork& w, const SensorHealth& health) {
   return f;
 }
 
-RutMeasurement StereoMeasurer::measure(const cv::Mat& left_raw, const cv::Mat& right_raw) {
+RutMeasurement StereoMeasurer::measure(const cv::Mat& left_raw, const cv::Mat& right_raw, std::int64_t skew_ns) {
   // Shallow copies: the pixels stay the caller's.
   work_.frame.left = left_raw;
   work_.frame.right = right_raw;
+  work_.frame.skew_ns = skew_ns;
   if (rectify(work_)) {
     if (!context_.engine) context_ = make_match_context();
     match(work_, context_);

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Checks `rutd bench --scenes --json` with Python's own JSON decoder: one object per scene, every
 documented key with its type, and each scene's counts recomputed from its frames (OK within 1 mm of the
-truth, OK beyond, refused, refused with an expected condition, refusals by status), each frame's error
+truth, OK beyond, refused, refused with an expected condition or status, refusals by status), each frame's error
 against its own depth and truth, and the water's truth present exactly in water scenes.
 Usage: check_scene_matrix_json.py FILE SCENES FRAMES. Prints what it checked; exits 1 naming the first
 fault."""
@@ -62,7 +62,8 @@ def check_scene(s, frames):
             refused += 1
             refused_within += abs(f["error_mm"]) <= 1.0
             refusals[f["status"]] = refusals.get(f["status"], 0) + 1
-            expected += bool(set(f["conditions"]) & set(s["expect"]))
+            # An expected condition, or an expected status (UNSYNCHRONISED has no condition bit).
+            expected += bool(set(f["conditions"]) & set(s["expect"])) or f["status"] in s["expect"]
     got = (s["ok_within_1mm"], s["ok_beyond_1mm"], s["refused"], s["refused_within_1mm"], s["refused_with_expected"],
            s["refusals"])
     want = (within, beyond, refused, refused_within, expected, refusals)

@@ -20,7 +20,7 @@ except ImportError:
     sys.exit(2)
 
 STATUS = ["OK", "NO_RUT", "TOO_FEW_POINTS", "NO_GROUND", "RUT_AT_EDGE", "NO_MEASUREMENT", "LENS_OBSTRUCTED",
-          "BAD_EXPOSURE", "CALIBRATION_DRIFT", "BOTTOM_NOT_SEEN", "VEGETATION", "UNCERTAIN"]
+          "BAD_EXPOSURE", "CALIBRATION_DRIFT", "BOTTOM_NOT_SEEN", "VEGETATION", "UNCERTAIN", "UNSYNCHRONISED"]
 LINE = re.compile(r"^\((\d+)\.(\d{6})\)\s+\S+\s+([0-9A-Fa-f]{8})#([0-9A-Fa-f]*)\s*$")
 
 

@@ -49,13 +49,13 @@ struct Strips {
   }
 };
 
-RutMeasurement check(const Strips& s, ConditionConfig config = {}) {
+RutMeasurement check(const Strips& s, ConditionConfig config = {}, std::int64_t skew_ns = 0) {
   const StereoGeometry geometry(ideal_rig(), StripRoi{220, kRows});
   FrameCheckScratch scratch;
   RutMeasurement m;
   m.status = RutStatus::Ok;
-  check_frame(s.left, s.right, s.disparity, 0, kRows, geometry, RutGeometry{}, DisparityBand{0, 64}, config, scratch,
-              m);
+  check_frame(s.left, s.right, s.disparity, 0, kRows, geometry, RutGeometry{}, DisparityBand{0, 64}, skew_ns, config,
+              scratch, m);
   return m;
 }
 
@@ -135,6 +135,43 @@ TEST(FrameChecks, RowsShiftedAreCalibrationDrift) {
   EXPECT_TRUE(m.conditions & kConditionCalibrationDrift);
   EXPECT_NEAR(m.vertical_disparity_px, 2.0, 0.3);
   EXPECT_EQ(m.status, RutStatus::CalibrationDrift);
+}
+
+// Free-running cameras: the same two-row shift with the right camera exposed 3 ms after the left is the
+// vehicle's motion, not the calibration's; so is a shift too large to correlate. Synchronised, or with the
+// views aligned, nothing changes.
+TEST(FrameChecks, RowsShiftedByAKnownSkewAreUnsynchronisedNotDrift) {
+  Strips s(120, 25);
+  cv::Mat shifted;
+  cv::copyMakeBorder(s.right.rowRange(0, kRows - 2), shifted, 2, 0, 0, 0, cv::BORDER_REPLICATE);
+  s.right = shifted;
+  const RutMeasurement skewed = check(s, {}, 3'000'000);
+  EXPECT_EQ(skewed.status, RutStatus::Unsynchronised) << to_string(skewed.status);
+  EXPECT_FALSE(skewed.conditions & kConditionCalibrationDrift) << int(skewed.conditions);
+  EXPECT_NEAR(skewed.vertical_disparity_px, 2.0, 0.3);  // still reported
+  // Below the configured skew (hardware-triggered cameras), or with the rule off: drift.
+  EXPECT_EQ(check(s, {}, 50'000).status, RutStatus::CalibrationDrift);
+  ConditionConfig off;
+  off.unsynchronised_skew_ms = 0;
+  EXPECT_EQ(check(s, off, 3'000'000).status, RutStatus::CalibrationDrift);
+  // A skew with the views aligned (the vehicle standing): measured as any pair.
+  const RutMeasurement standing = check(Strips(120, 25), {}, 3'000'000);
+  EXPECT_EQ(standing.status, RutStatus::Ok) << to_string(standing.status);
+  EXPECT_EQ(standing.conditions, 0) << int(standing.conditions);
+}
+
+TEST(FrameChecks, ViewsTooFarApartToCorrelateWithAKnownSkewAreUnsynchronised) {
+  Strips s(120, 25);
+  s.right = Strips(120, 25, 11).right;  // the right camera sees other ground: moved beyond the search
+  s.disparity.setTo(std::numeric_limits<float>::quiet_NaN());
+  const RutMeasurement skewed = check(s, {}, -6'000'000);
+  EXPECT_EQ(skewed.status, RutStatus::Unsynchronised) << to_string(skewed.status);
+  EXPECT_EQ(skewed.conditions & (kLens | kConditionVegetation | kConditionCalibrationDrift), 0)
+      << int(skewed.conditions);
+  EXPECT_EQ(skewed.obstructed_left, 0.0);
+  EXPECT_EQ(skewed.obstructed_right, 0.0);
+  // Without the skew the same views are not called unsynchronised.
+  EXPECT_NE(check(s).status, RutStatus::Unsynchronised);
 }
 
 TEST(FrameChecks, TexturedUnmatchedOutsideTheRutIsVegetation) {

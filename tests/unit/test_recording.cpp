@@ -60,6 +60,7 @@ StereoFrame make_pair(std::uint64_t seq, int type, cv::Size size = kSize) {
   StereoFrame frame;
   frame.seq = seq;
   frame.t_ns = 1'700'000'000'000'000'000LL + static_cast<std::int64_t>(seq) * 33'333'333;
+  frame.skew_ns = seq % 2 == 0 ? 0 : -2'500'000 * static_cast<std::int64_t>(seq);  // free-running, right first
   cv::RNG rng(seq * 2654435761u + static_cast<std::uint64_t>(type));
   frame.left.create(size, type);
   frame.right.create(size, type);
@@ -121,6 +122,7 @@ TEST_F(RecordingTest, RoundTripIsBitExactFor8And16Bit) {
       const StereoFrame expected = make_pair(seq, type);
       EXPECT_EQ(frame.seq, seq);
       EXPECT_EQ(frame.t_ns, expected.t_ns);
+      EXPECT_EQ(frame.skew_ns, expected.skew_ns);
       EXPECT_EQ(frame.clock, ClockKind::Monotonic);
       EXPECT_TRUE(same_image(frame.left, expected.left));
       EXPECT_TRUE(same_image(frame.right, expected.right));
@@ -140,9 +142,9 @@ TEST_F(RecordingTest, RoundTripIsBitExactFor8And16Bit) {
 TEST_F(RecordingTest, FolderLayoutIsTheDocumentedOne) {
   record(dir_, 2);
   EXPECT_EQ(read_text(frames()),
-            "seq,t_ns,left,right\n"
-            "0,1700000000000000000,left/00000000.png,right/00000000.png\n"
-            "1,1700000000033333333,left/00000001.png,right/00000001.png\n");
+            "seq,t_ns,skew_ns,left,right\n"
+            "0,1700000000000000000,0,left/00000000.png,right/00000000.png\n"
+            "1,1700000000033333333,-2500000,left/00000001.png,right/00000001.png\n");
   EXPECT_TRUE(fs::is_regular_file(dir_ / "calibration.yaml"));
   // Only the listed images remain: no temporaries.
   for (const char* side : {"left", "right"}) {
@@ -273,7 +275,9 @@ TEST_F(RecordingTest, OpenErrorsNameFileAndField) {
   write_text(frames(), "");
   expect_open_error(dir, frames(), "line 1", "missing header (file is empty)");
   write_text(frames(), "seq,t,left,right\n0,0,left/00000000.png,right/00000000.png\n");
-  expect_open_error(dir, frames(), "line 1", "header is 'seq,t,left,right' but must be 'seq,t_ns,left,right'");
+  expect_open_error(dir, frames(), "line 1",
+                    "header is 'seq,t,left,right' but must be 'seq,t_ns,skew_ns,left,right' (or, recorded before "
+                    "skew_ns, 'seq,t_ns,left,right')");
 }
 
 // ---------------------------------------------------------------------------------------------------
@@ -337,6 +341,30 @@ TEST_F(ReplayErrorTest, MalformedLinesAreErrorsAndReplayGoesOn) {
   expect_error(8, "expected 4 fields (seq,t_ns,left,right), found 5");
   expect_pair(3);
   expect_end(false);
+}
+
+// The skew column (recordings since skew_ns): read back as written, malformed values and field counts named;
+// the recording of MalformedLinesAreErrorsAndReplayGoesOn, without it, reads as skew 0.
+TEST_F(ReplayErrorTest, SkewColumnIsReadAndCheckedWhereTheHeaderHasIt) {
+  const auto with_skew = [&](std::uint64_t seq, const std::string& skew) {
+    const std::string l = line(seq);  // seq,t_ns,left,right
+    const std::size_t paths = l.find(',', l.find(',') + 1) + 1;
+    return l.substr(0, paths) + skew + "," + l.substr(paths);
+  };
+  write_text(frames(), "seq,t_ns,skew_ns,left,right\n" + with_skew(0, "-7000000") + line(1) + with_skew(2, "1.5e6") +
+                           with_skew(3, "2500"));
+  reader_.emplace(dir_.string());
+  StereoFrame frame;
+  ASSERT_EQ(reader_->next(frame), SourceStatus::Ok) << reader_->error_message();
+  EXPECT_EQ(frame.skew_ns, -7'000'000);
+  expect_error(3, "expected 5 fields (seq,t_ns,skew_ns,left,right), found 4");
+  expect_error(4, "skew_ns '1.5e6' is not an integer");
+  ASSERT_EQ(reader_->next(frame), SourceStatus::Ok) << reader_->error_message();
+  EXPECT_EQ(frame.seq, 3u);
+  EXPECT_EQ(frame.skew_ns, 2500);
+  replay(line(0));  // the header without skew_ns
+  ASSERT_EQ(reader_->next(frame), SourceStatus::Ok) << reader_->error_message();
+  EXPECT_EQ(frame.skew_ns, 0);
 }
 
 TEST_F(ReplayErrorTest, MissingImageNamesImageAndLine) {

@@ -79,6 +79,7 @@ TEST(SceneMatrix, CoversTheSpoiledAndCleanScenesAndEveryOneIsAValidSynthCommand)
     } else {
       EXPECT_EQ(s.group, "skew");
       EXPECT_NE(p.right_delay_ms, 0);
+      EXPECT_EQ(s.expect, std::vector<std::string>{"UNSYNCHRONISED"});
     }
     EXPECT_EQ(p.rut.tread, s.group == "tread");
     // The rut, its piles and 40 mm of ground beside each are in both cameras' view on the principal row.

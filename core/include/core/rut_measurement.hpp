@@ -39,8 +39,11 @@ enum class RutStatus : std::uint8_t {
   BottomNotSeen = 9,     // standing water or another flat textureless patch where the rut bottom should be
   Vegetation = 10,       // the profile is rough at scales that soil is not (grass above the soil)
   Uncertain = 11,        // the estimated depth uncertainty exceeds RutConfig::max_depth_uncertainty_mm
+  // The two cameras exposed too far apart (free-running, StereoFrame::skew_ns): the vehicle moved between
+  // them and the right view is shifted off the epipolar lines by that motion, not by the calibration.
+  Unsynchronised = 12,
 };
-inline constexpr int kRutStatusCount = 12;
+inline constexpr int kRutStatusCount = 13;
 
 // Conditions seen on one frame, one bit each (RutMeasurement::conditions; the CAN frame RutConditions
 // carries them in this order, config/rutd.dbc). They are reported whatever the status.

@@ -15,6 +15,10 @@ enum class ClockKind : std::uint8_t {
 struct StereoFrame {
   std::uint64_t seq = 0;  // sequence number from the source, increasing by one per pair produced
   std::int64_t t_ns = 0;  // capture time of the pair, nanoseconds
+  // The right camera's capture time minus the left's, ns, where the source knows it (cameras' hardware
+  // timestamps, a renderer, a recording that kept it); 0 when synchronised or unknown. Free-running
+  // cameras at vehicle speed see the ground move by speed x skew between the two images.
+  std::int64_t skew_ns = 0;
   ClockKind clock = ClockKind::Monotonic;
   // CV_8UC1 or CV_16UC1, same size and type in both. Sources reuse these buffers when size and type
   // already fit, so a frame kept in a pool is refilled without allocation.

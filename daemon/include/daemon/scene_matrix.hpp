@@ -21,11 +21,13 @@
 namespace rutd {
 
 struct MatrixScene {
-  std::string name;                 // unique, e.g. "water-clear-mud-07"
-  std::string group;                // "spoiled", "clean", "tread" or "skew"
-  std::string kind;                 // e.g. "water-clear", "lens-mud-left", "clean-auto-dim"
-  std::vector<std::string> expect;  // RutConditions signals that rightly refuse it (config/rutd.dbc names)
-  std::string synth;                // rutd synth options besides the folder and --frames
+  std::string name;   // unique, e.g. "water-clear-mud-07"
+  std::string group;  // "spoiled", "clean", "tread" or "skew"
+  std::string kind;   // e.g. "water-clear", "lens-mud-left", "clean-auto-dim"
+  // What rightly refuses it: RutConditions signals, or a status with no condition bit (UNSYNCHRONISED),
+  // config/rutd.dbc names.
+  std::vector<std::string> expect;
+  std::string synth;  // rutd synth options besides the folder and --frames
 };
 
 // The default matrix: 40 water scenes, 15 lens faults, 4 at night, 64 clean scenes, 6 with tread, 6

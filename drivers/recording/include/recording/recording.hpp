@@ -2,7 +2,9 @@
 // The recording folder (DESIGN.md, Formats): what `record` writes and `replay` reads.
 //
 //   calibration.yaml   the rig's calibration (recording/calibration_file.hpp)
-//   frames.csv         header `seq,t_ns,left,right`, one line per pair, image paths relative to the folder
+//   frames.csv         header `seq,t_ns,skew_ns,left,right`, one line per pair, skew_ns the right camera's
+//                      capture time minus the left's (older recordings lack the column: skew 0), image
+//                      paths relative to the folder
 //   left/*.png         raw (unrectified) 8-bit or 16-bit grey images, named by seq
 //   right/*.png
 //
@@ -121,6 +123,7 @@ class ReplaySource : public FrameSource {
   StereoCalibration calibration_;
   std::ifstream csv_;
   std::uint64_t line_number_ = 1;  // of the line last read; the header is line 1
+  int fields_ = 5;                 // per line: 5, or 4 in a recording made before skew_ns
   bool have_previous_ = false;
   std::uint64_t previous_seq_ = 0;
   std::int64_t previous_t_ns_ = 0;

@@ -73,6 +73,14 @@ struct ConditionConfig {
   int vertical_blocks = 5;
   int vertical_block_px = 24;
   double min_vertical_correlation = 0.6;  // a block whose best correlation is lower is not used
+  // Free-running cameras: a pair whose cameras exposed at least unsynchronised_skew_ms apart
+  // (StereoFrame::skew_ns, where the source knows it) shows the ground moved by speed x skew between
+  // the two views, off the epipolar lines as a drifted calibration is. There, offsets beyond the limit,
+  // or none found at all, are the motion's: the pair is refused as UNSYNCHRONISED, and the conditions
+  // that compare the two views (CalibrationDrift, the lens checks, Vegetation) are not raised from it.
+  // Offsets within the limit (the vehicle standing) leave the checks as they are. 0.1 ms: well above
+  // hardware-triggered cameras' skew (microseconds), and a tenth of a millimetre's motion at 1 m/s.
+  double unsynchronised_skew_ms = 0.1;
   // Vegetation: blades standing above the soil are seen by both cameras (texture in both) but do not
   // match as one surface (each camera sees other blades in front of other soil), so DIC refuses them.
   // Soil, snow and mud match wherever both cameras see texture. Flagged when more than
@@ -112,8 +120,10 @@ struct FrameCheckScratch {
 // obstructed_left/right, status). Never throws.
 // band: the disparity band the frame was matched in (where to look for the right strip's features
 // when no disparity was found).
+// skew_ns: the pair's StereoFrame::skew_ns (0: synchronised or unknown).
 void check_frame(const cv::Mat& left_strip, const cv::Mat& right_strip, const cv::Mat& disparity, int row_begin,
                  int row_end, const StereoGeometry& geometry, const RutGeometry& rut, DisparityBand band,
-                 const ConditionConfig& config, FrameCheckScratch& scratch, RutMeasurement& m) noexcept;
+                 std::int64_t skew_ns, const ConditionConfig& config, FrameCheckScratch& scratch,
+                 RutMeasurement& m) noexcept;
 
 }  // namespace rutd

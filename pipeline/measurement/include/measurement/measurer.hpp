@@ -147,8 +147,9 @@ class StereoMeasurer {
 
   MatchContext make_match_context() const;
 
-  // The three stages in turn on internal buffers (replay, tests). Not thread-safe.
-  RutMeasurement measure(const cv::Mat& left_raw, const cv::Mat& right_raw);
+  // The three stages in turn on internal buffers (replay, tests). Not thread-safe. skew_ns: the pair's
+  // StereoFrame::skew_ns.
+  RutMeasurement measure(const cv::Mat& left_raw, const cv::Mat& right_raw, std::int64_t skew_ns = 0);
   const MeasurementDiagnostics& diagnostics() const { return work_.diag; }
   // The last measure() call's refined disparity strip (CV_32FC1 px, NaN invalid).
   const cv::Mat& disparity() const { return work_.disparity; }
