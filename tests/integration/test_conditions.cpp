@@ -114,16 +114,17 @@ const Case kCases[] = {
      "--height 322 --roll -1.8 --seed 1004 --water-level 21.3 --debris 0.75 --debris-kind litter "
      "--water-attenuation 0.012",
      4, "Water", 0.75, true},
-    // Opaque splash on one lens, 10-50 % of the strip, and a fully covered lens.
+    // Opaque splash on one lens, 10-50 % of the strip, and a fully covered lens: flagged on every frame,
+    // published or not (the splash is there whatever the depth).
     {"splash10_left_sand", "--depth 50 --splash 0.1 --splash-camera left --splash-centre 0.45 --seed 41", 6,
-     "LeftLensObstructed", 0.0, true},
+     "LeftLensObstructed", 1.0, true},
     {"splash25_right_snow",
      "--depth 40 --texture snow --splash 0.25 --splash-camera right --splash-centre 0.6 --seed 42", 6,
-     "RightLensObstructed", 0.0, true},
+     "RightLensObstructed", 1.0, true},
     {"splash50_left_snow", "--depth 60 --texture snow --splash 0.5 --splash-camera left --splash-centre 0.5 --seed 43",
-     6, "LeftLensObstructed", 0.0, true},
+     6, "LeftLensObstructed", 1.0, true},
     {"splash35_right_sand_r3", "--depth 30 --roll 3 --splash 0.35 --splash-camera right --splash-centre 0.3 --seed 44",
-     6, "RightLensObstructed", 0.0, true},
+     6, "RightLensObstructed", 1.0, true},
     {"covered_left_sand", "--depth 50 --splash 1 --splash-camera left --seed 45", 4, "LeftLensObstructed", 1.0, true},
     {"covered_right_snow", "--depth 40 --texture snow --splash 1 --splash-camera right --seed 46", 4,
      "RightLensObstructed", 1.0, true},

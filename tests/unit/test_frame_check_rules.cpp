@@ -49,13 +49,13 @@ struct Strips {
   }
 };
 
-RutMeasurement check(const Strips& s, ConditionConfig config = {}, std::int64_t skew_ns = 0) {
+RutMeasurement check(const Strips& s, ConditionConfig config = {}, std::int64_t skew_ns = 0,
+                     const RutGeometry& rut = {}) {
   const StereoGeometry geometry(ideal_rig(), StripRoi{220, kRows});
   FrameCheckScratch scratch;
   RutMeasurement m;
   m.status = RutStatus::Ok;
-  check_frame(s.left, s.right, s.disparity, 0, kRows, geometry, RutGeometry{}, DisparityBand{0, 64}, skew_ns, config,
-              scratch, m);
+  check_frame(s.left, s.right, s.disparity, 0, kRows, geometry, rut, DisparityBand{0, 64}, skew_ns, config, scratch, m);
   return m;
 }
 
@@ -172,6 +172,35 @@ TEST(FrameChecks, ViewsTooFarApartToCorrelateWithAKnownSkewAreUnsynchronised) {
   EXPECT_EQ(skewed.obstructed_right, 0.0);
   // Without the skew the same views are not called unsynchronised.
   EXPECT_NE(check(s).status, RutStatus::Unsynchronised);
+}
+
+// Standing water (or any flat patch) in the rut: inside the opening both views are flat and nothing
+// matched over 60 mm; the bottom is hidden only where the profile's walls still descend into the patch.
+TEST(FrameChecks, FlatUnmatchedPatchInTheRutHidesTheBottomWhereTheWallsDescend) {
+  Strips s(120, 25);
+  const int u0 = 264, u1 = 376;  // left columns of the patch; the right view sees them kDisparity px left
+  s.left.colRange(u0, u1).setTo(90);
+  s.right.colRange(u0 - kDisparity, u1 - kDisparity).setTo(90);
+  s.disparity.colRange(u0, u1).setTo(std::numeric_limits<float>::quiet_NaN());
+  RutGeometry rut;  // ground 400 mm away, the opening X -40..40 mm: columns 249.5..389.5 of the 700 px lens
+  rut.has_line = rut.has_rut = true;
+  rut.line_c = 400;
+  rut.left_x_mm = -40;
+  rut.right_x_mm = 40;
+  rut.unseen_depth_mm = 6;  // the walls descend into the patch
+  const RutMeasurement hidden = check(s, {}, 0, rut);
+  EXPECT_TRUE(hidden.conditions & kConditionWater) << int(hidden.conditions);
+  EXPECT_EQ(hidden.status, RutStatus::BottomNotSeen) << to_string(hidden.status);
+  EXPECT_EQ(hidden.conditions & (kLens | kConditionVegetation | kConditionCalibrationDrift), 0);
+  rut.unseen_depth_mm = 0;  // bottom seen level on both sides of the patch: nothing hidden
+  const RutMeasurement seen = check(s, {}, 0, rut);
+  EXPECT_FALSE(seen.conditions & kConditionWater) << int(seen.conditions);
+  EXPECT_EQ(seen.status, RutStatus::Ok) << to_string(seen.status);
+  // Outside the opening the same patch is no water (the rut is elsewhere).
+  rut.unseen_depth_mm = 6;
+  rut.left_x_mm = 60;
+  rut.right_x_mm = 120;
+  EXPECT_FALSE(check(s, {}, 0, rut).conditions & kConditionWater);
 }
 
 TEST(FrameChecks, TexturedUnmatchedOutsideTheRutIsVegetation) {
