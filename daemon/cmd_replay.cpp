@@ -170,6 +170,7 @@ int replay_recording(const ReplayOptions& o) {
       return true;
     };
   }
+  if (candump && (have_speed || recorded)) candump->can.enable_motion();
   SinkFanout fanout(outputs);
   TrafficabilitySink traffic(fanout, pull, tc.odometer, tc.segments);
   // Positions before trafficability, so that the segments carry them.

@@ -156,6 +156,8 @@ int run_daemon(const RunOptions& o, const RunInjection& injection) {
               software_version());
   // The CAN status frame says NO_MEASUREMENT once nothing has been published for as long as it takes to
   // call a camera lost.
+  // RutMotion with every measurement once there is a speed or a position to tell.
+  if (!c.trafficability.socketcan.empty() || c.gps.enabled) can.enable_motion();
   NoOutputStatusSink can_status(can, c.pipeline.no_frame_timeout);
   LatestMeasurementSink latest;
   std::vector<MeasurementSink*> sinks{&can_status, &latest};

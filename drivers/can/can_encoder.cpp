@@ -47,6 +47,10 @@ constexpr Signal kSegmentMax{16, 12, 0.1, 0.0, 0.0, 409.4};
 constexpr Signal kSegmentRefused{28, 8, 0.4, 0.0, 0.0, 100.0};
 constexpr Signal kSegmentFrames{36, 12, 1.0, 0.0, 0.0, 4094.0};
 constexpr Signal kSegmentStrength{48, 16, 0.1, 0.0, 0.0, 6553.4};
+constexpr Signal kMotionSpeed{16, 16, 0.01, -320.0, -320.0, 335.34};  // km/h
+constexpr Signal kMotionDistance{32, 24, 0.01, 0.0, 0.0, 167772.14};  // m
+constexpr int kMotionFixStartBit = 56;
+constexpr int kMotionReservedStartBit = 60;
 constexpr int kFlagsStartBit = 16;
 constexpr int kDroppedStartBit = 40;
 constexpr int kDroppedBits = 24;
@@ -113,6 +117,7 @@ std::string check_can_id_config(const CanIdConfig& ids) {
                                                         {"conditions_pgn", ids.conditions_pgn},
                                                         {"segment_pgn", ids.segment_pgn},
                                                         {"segment_stats_pgn", ids.segment_stats_pgn},
+                                                        {"motion_pgn", ids.motion_pgn},
                                                         {"version_pgn", ids.version_pgn}};
   for (const auto& [name, pgn] : pgns) {
     if (pgn > 0x3FFFF) return std::string(name) + ": PGN must be 0..0x3FFFF";
@@ -124,6 +129,7 @@ std::string check_can_id_config(const CanIdConfig& ids) {
                                                          {"conditions_id_11bit", ids.conditions_id_11bit},
                                                          {"segment_id_11bit", ids.segment_id_11bit},
                                                          {"segment_stats_id_11bit", ids.segment_stats_id_11bit},
+                                                         {"motion_id_11bit", ids.motion_id_11bit},
                                                          {"version_id_11bit", ids.version_id_11bit}};
   for (const auto& [name, id] : ids11) {
     if (id > 0x7FF) return std::string(name) + ": must be 0..0x7FF";
@@ -175,6 +181,19 @@ CanFrame CanEncoder::encode_conditions(const RutMeasurement& m) const noexcept {
   put(frame.data, kLeftObstructed, m.obstructed_left * 100.0, true);
   put(frame.data, kRightObstructed, m.obstructed_right * 100.0, true);
   protect(frame, kConditionsDataId, last_measurement_counter_, status_nibble(m.status));
+  return frame;
+}
+
+CanFrame CanEncoder::encode_motion(const VehicleMotion& motion, const GeoFix& position) const noexcept {
+  CanFrame frame = make_frame(ids_.motion_pgn, ids_.motion_id_11bit);
+  const bool moving_known = motion.state == SpeedState::Ok;
+  put(frame.data, kMotionSpeed, motion.speed_mm_s * 3.6e-3, moving_known);
+  put(frame.data, kMotionDistance, motion.distance_m, true);
+  const auto mode = static_cast<std::uint8_t>(position.mode);
+  put_bits(frame.data, kMotionFixStartBit, 4, mode >= 1 && mode <= 3 ? mode : kUnknownStatus);
+  put_bits(frame.data, kMotionReservedStartBit, 4, all_ones(4));
+  const auto state = static_cast<std::uint8_t>(motion.state);
+  protect(frame, kMotionDataId, last_measurement_counter_, state <= 4 ? state : kUnknownStatus);
   return frame;
 }
 

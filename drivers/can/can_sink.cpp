@@ -36,6 +36,7 @@ void CanSink::publish(const PublishedFrame& frame) {
   const int n = encoder_.encode_measurement(frame.measurement, frames_);
   for (int i = 0; i < n; ++i) emit(frames_[static_cast<std::size_t>(i)], frame.t_ns);
   emit(encoder_.encode_conditions(frame.measurement), frame.t_ns);
+  if (motion_) emit(encoder_.encode_motion(frame.motion, frame.position), frame.t_ns);
   if (log_stream_ != nullptr) log_stream_->flush();
 }
 

@@ -30,7 +30,7 @@ except ImportError:
     sys.exit(2)
 
 SAME_COUNTER_AS = {"RutMeasurement2": "RutMeasurement1", "RutConditions": "RutMeasurement1",
-                   "RutSegmentStats": "RutSegment"}
+                   "RutMotion": "RutMeasurement1", "RutSegmentStats": "RutSegment"}
 REQUIRED_PARTNERS = {"RutMeasurement1": {"RutMeasurement2"}, "RutSegment": {"RutSegmentStats"}}
 COUNTER_MODULO = 15
 LINE = re.compile(r"^\((\d+)\.(\d{6})\)\s+(\S+)\s+([0-9A-Fa-f]{3}|[0-9A-Fa-f]{8})#((?:[0-9A-Fa-f]{2})*)\s*$")

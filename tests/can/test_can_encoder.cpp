@@ -127,6 +127,8 @@ constexpr Range kSegmentEnd{0, 10485.74, 0.01};
 constexpr Range kSegmentDepth{0, 409.4, 0.1};
 constexpr Range kSegmentFrames{0, 4094, 1};
 constexpr Range kSoilStrength{0, 6553.4, 0.1};
+constexpr Range kSpeedKmh{-320, 335.34, 0.01};
+constexpr Range kTrackDistance{0, 167772.14, 0.01};
 
 struct Expect {
   bool na = false;
@@ -230,6 +232,43 @@ void expect_segment(Expectations& e, int index, int counter, const Segment& g) {
   e[{index + 1, "SegmentRefused"}] = g.frames > 0 ? physical(100.0 * g.refused / g.frames, kShare) : not_available();
   e[{index + 1, "SegmentFrames"}] = physical(g.frames, kSegmentFrames);
   e[{index + 1, "SegmentSoilStrength"}] = physical(g.soil_strength, kSoilStrength);
+}
+
+// RutMotion: the speed only when its state is OK, the distance whenever known, the fix as the position
+// source says.
+struct MotionCase {
+  VehicleMotion motion;
+  GeoFix position;  // Mode::None: no positioning source
+};
+
+void expect_motion(Expectations& e, int index, int counter, const MotionCase& c) {
+  const char* states[] = {"OK", "NOT_AVAILABLE", "ERROR", "STALE", "NO_SOURCE"};
+  const char* fixes[] = {"NO_SOURCE", "NO_FIX", "FIX_2D", "FIX_3D"};
+  const int state = static_cast<int>(c.motion.state);
+  e[{index, "RutMo_Counter"}] = exact(counter);
+  e[{index, "SpeedState"}] = exact(state, states[state]);
+  e[{index, "VehicleSpeed"}] =
+      c.motion.state == SpeedState::Ok ? physical(c.motion.speed_mm_s * 3.6e-3, kSpeedKmh) : not_available();
+  e[{index, "TrackDistance"}] = physical(c.motion.distance_m, kTrackDistance);
+  const int fix = static_cast<int>(c.position.mode);
+  e[{index, "PositionFix"}] = exact(fix == 0 ? 15 : fix, fixes[fix]);
+}
+
+// The ends of every field, each state and fix, and random values spilling past both ends.
+MotionCase motion_case(std::mt19937& rng, int k) {
+  MotionCase c;
+  auto uniform = [&](double lo, double hi) { return std::uniform_real_distribution<double>(lo, hi)(rng); };
+  c.motion.state = static_cast<SpeedState>(k % 5);
+  c.motion.speed_mm_s = uniform(-120000, 120000);  // beyond -320..335 km/h at both ends
+  c.motion.distance_m = k % 7 == 3 ? kNaN : uniform(-10, 180000);
+  c.position.mode = static_cast<GeoFix::Mode>(k % 4);
+  const double speeds[] = {0.0, -320 / 3.6e-3, 335.34 / 3.6e-3, 7.2 / 3.6e-3, -0.004};
+  if (k < 5) {
+    c.motion.state = SpeedState::Ok;
+    c.motion.speed_mm_s = speeds[k];
+    c.motion.distance_m = k == 1 ? 167772.14 : k == 2 ? 0.0 : 12.34;
+  }
+  return c;
 }
 
 // The ends of every field, a segment without measurements, and random segments.
@@ -370,6 +409,13 @@ std::pair<Expectations, std::vector<CanFrame>> write_log(const fs::path& log_pat
     frames.push_back(encoder.encode_conditions(cases[k]));
     times.push_back(t + n * 150'000);
     EXPECT_TRUE(writer.write(frames.back(), times.back()));
+    if (k % 2 == 0) {  // a daemon with a speed or positioning source
+      const MotionCase c = motion_case(rng, static_cast<int>(k / 2));
+      expect_motion(expected, static_cast<int>(frames.size()), static_cast<int>(k % 15), c);
+      frames.push_back(encoder.encode_motion(c.motion, c.position));
+      times.push_back(t + (n + 1) * 150'000);
+      EXPECT_TRUE(writer.write(frames.back(), times.back()));
+    }
     if (k % 10 == 9) {
       const SensorHealth h = health_case(rng, status_count);
       expect_status(expected, static_cast<int>(frames.size()), status_count % 15, h);
@@ -484,6 +530,28 @@ TEST(CanEncoder, SegmentFrameIsTheWorkedExample) {
     EXPECT_EQ(out[0].data[static_cast<std::size_t>(i + 1)], want[static_cast<std::size_t>(i)]) << i;
 }
 
+TEST(CanEncoder, MotionFrameIsTheWorkedExample) {
+  CanEncoder encoder;
+  std::array<CanFrame, 2> out{};
+  encoder.encode_measurement(RutMeasurement{}, out);  // counter 0
+  VehicleMotion motion;
+  motion.state = SpeedState::Ok;
+  motion.speed_mm_s = 2000;  // 7.2 km/h
+  motion.distance_m = 12.34;
+  GeoFix fix;
+  fix.mode = GeoFix::Mode::Fix3d;
+  std::ostringstream os;
+  CandumpLogWriter(os, "can0").write(encoder.encode_motion(motion, fix), 1'000'000);
+  EXPECT_EQ(os.str(), "(0000000000.001000) can0 18FF56A0#9A00D07FD20400F3\n");
+  CanIdConfig ids;
+  ids.extended = false;
+  CanEncoder standard(ids);
+  standard.encode_measurement(RutMeasurement{}, out);
+  const CanFrame eleven = standard.encode_motion(motion, fix);
+  EXPECT_EQ(eleven.id, 0x356U);
+  EXPECT_EQ(eleven.data, encoder.encode_motion(motion, fix).data);
+}
+
 TEST(CanEncoder, VersionFrameIsTheWorkedExample) {
   CanEncoder encoder;
   std::ostringstream os;
@@ -516,6 +584,7 @@ TEST(CanEncoder, MeasurementFramesShareACounterThatRunsZeroToFourteen) {
     EXPECT_EQ(out[0].data[1] & 0x0F, k % 15);
     EXPECT_EQ(out[1].data[1] & 0x0F, k % 15);
     EXPECT_EQ(encoder.encode_conditions(RutMeasurement{}).data[1] & 0x0F, k % 15);
+    EXPECT_EQ(encoder.encode_motion(VehicleMotion{}, GeoFix{}).data[1] & 0x0F, k % 15);
   }
 }
 

@@ -8,6 +8,7 @@
 #include <sys/socket.h>
 #include <unistd.h>
 
+#include <cmath>
 #include <fstream>
 #include <memory>
 #include <string>
@@ -129,6 +130,55 @@ TEST(CanSinkStatus, SoftwareVersionGoesOutWithTheFirstStatusThenOnceASecond) {
   bool without_ok = false;
   EXPECT_TRUE(test::frames_of(test::decode_candump(without_path, without_ok), "RutSoftwareVersion").empty());
   EXPECT_TRUE(without_ok);
+}
+
+// RutMotion follows each measurement's RutConditions (same counter) once enabled, with the frame's motion
+// and fix, decoded by canmatrix; a sink not enabled sends three frames a measurement, as before.
+TEST(CanSinkStatus, MotionFollowsEveryMeasurementOnceEnabled) {
+  if (!test::have_canmatrix()) RUTD_SKIP_NEEDS_INSTALLED("needs /usr/bin/python3 with canmatrix (python3-canmatrix)");
+  const test::TempDir tmp;
+  const auto with_path = tmp.path() / "with.log", without_path = tmp.path() / "without.log";
+  {
+    std::ofstream with_stream(with_path), without_stream(without_path);
+    CandumpLogWriter with_log(with_stream, "can0"), without_log(without_stream, "can0");
+    CanSink with(CanIdConfig{}, nullptr, &with_log, &with_stream);
+    CanSink without(CanIdConfig{}, nullptr, &without_log, &without_stream);
+    with.enable_motion();
+    PublishedFrame frame;
+    for (int k = 0; k < 20; ++k) {
+      frame.t_ns = 1'000'000'000 + k * 33'333'333LL;
+      frame.motion.state = k < 10 ? SpeedState::Ok : SpeedState::Stale;
+      frame.motion.speed_mm_s = k < 10 ? -1000.0 * k : 0.0;
+      frame.motion.distance_m = k < 10 ? 0.25 * k : std::nan("");
+      frame.position.mode = k % 2 ? GeoFix::Mode::Fix2d : GeoFix::Mode::NoFix;
+      with.publish(frame);
+      without.publish(frame);
+    }
+  }
+  bool ok = false, without_ok = false;
+  const auto frames = test::decode_candump(with_path, ok);
+  EXPECT_TRUE(ok) << "the decoder reported a CRC, counter or unknown frame";
+  ASSERT_EQ(frames.size(), 80u);
+  for (int k = 0; k < 20; ++k) {
+    const auto& conditions = frames[static_cast<std::size_t>(4 * k + 2)];
+    const auto& f = frames[static_cast<std::size_t>(4 * k + 3)];
+    ASSERT_EQ(conditions.message, "RutConditions");
+    ASSERT_EQ(f.message, "RutMotion") << k;
+    EXPECT_EQ(f.raw.at("RutMo_Counter"), conditions.raw.at("RutC_Counter"));
+    EXPECT_EQ(f.named.at("SpeedState"), k < 10 ? "OK" : "STALE") << k;
+    EXPECT_EQ(f.named.at("PositionFix"), k % 2 ? "FIX_2D" : "NO_FIX") << k;
+    if (k < 10) {
+      EXPECT_NEAR(f.phys.at("VehicleSpeed"), -3.6 * k, 0.005) << k;
+      EXPECT_NEAR(f.phys.at("TrackDistance"), 0.25 * k, 0.005) << k;
+    } else {
+      EXPECT_TRUE(f.na.at("VehicleSpeed")) << k;
+      EXPECT_TRUE(f.na.at("TrackDistance")) << k;
+    }
+  }
+  const auto plain = test::decode_candump(without_path, without_ok);
+  EXPECT_TRUE(without_ok);
+  EXPECT_EQ(plain.size(), 60u);
+  EXPECT_TRUE(test::frames_of(plain, "RutMotion").empty());
 }
 
 }  // namespace

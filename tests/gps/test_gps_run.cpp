@@ -3,12 +3,15 @@
 // equal to a position of the NMEA log within its resolution, in the log's order) and records gpsd's
 // reports as gps.jsonl beside the pairs; `rutd replay --positions` of that recording joins exactly the
 // same positions to the same pairs. Without gpsd, rutd measures every pair all the same, with no position,
-// and says so in every periodic summary.
+// and says so in every periodic summary. On CAN, every measurement's RutMotion frame carries the same fix
+// mode as its CSV row (decoded by canmatrix with config/rutd.dbc).
+#include <algorithm>
 #include <map>
 #include <set>
 
 #include <gtest/gtest.h>
 
+#include "decoded_candump.hpp"
 #include "gps_test_support.hpp"
 #include "recording/measurement_csv.hpp"
 
@@ -19,6 +22,23 @@ using namespace std::chrono_literals;
 using test::fs::path;
 
 bool same(double a, double b) { return (std::isnan(a) && std::isnan(b)) || a == b; }
+
+// The RutMotion frames of a candump log must say, in order, what the CSV rows' fix modes say, with no
+// speed source. Returns how many were compared.
+std::size_t expect_motion_fixes_match(const path& candump, const MeasurementCsv& csv) {
+  bool ok = false;
+  const auto motion = test::frames_of(test::decode_candump(candump, ok), "RutMotion");
+  EXPECT_TRUE(ok) << "the decoder reported a CRC, counter or unknown frame";
+  EXPECT_EQ(motion.size(), csv.rows.size());
+  std::size_t compared = 0;
+  for (std::size_t i = 0; i < std::min(motion.size(), csv.rows.size()); ++i, ++compared) {
+    const GeoFix::Mode mode = csv.rows[i].position.mode;
+    const char* want = mode == GeoFix::Mode::Fix3d ? "FIX_3D" : mode == GeoFix::Mode::Fix2d ? "FIX_2D" : "NO_FIX";
+    EXPECT_EQ(motion[i].named.at("PositionFix"), want) << "seq " << csv.rows[i].seq;
+    EXPECT_EQ(motion[i].named.at("SpeedState"), "NO_SOURCE") << "seq " << csv.rows[i].seq;
+  }
+  return compared;
+}
 
 class GpsRunTest : public ::testing::Test {
  protected:
@@ -51,10 +71,11 @@ TEST_F(GpsRunTest, RunJoinsGpsdPositionsAndReplayReproducesThem) {
       dir_ / "gpsfake.log");
   ASSERT_TRUE(test::wait_for_port(port, 10s)) << test::read_text(dir_ / "gpsfake.log");
   const path config = write_config(port);
-  ASSERT_EQ(test::run_rutd("run --config " + test::quoted(config) + " --frames 45 --csv " +
-                               test::quoted(dir_ / "run.csv") + " --record " + test::quoted(dir_ / "rec"),
-                           (dir_ / "run.log").string()),
-            0)
+  ASSERT_EQ(
+      test::run_rutd("run --config " + test::quoted(config) + " --frames 45 --csv " + test::quoted(dir_ / "run.csv") +
+                         " --record " + test::quoted(dir_ / "rec") + " --candump " + test::quoted(dir_ / "can.log"),
+                     (dir_ / "run.log").string()),
+      0)
       << test::read_text(dir_ / "run.log");
   gpsfake.stop();
   const MeasurementCsv run = read_measurement_csv((dir_ / "run.csv").string());
@@ -73,6 +94,7 @@ TEST_F(GpsRunTest, RunJoinsGpsdPositionsAndReplayReproducesThem) {
   }
   // gpsfake starts its log as rutd starts; the pairs before the first fix have none.
   EXPECT_GE(with_position, 20) << test::read_text(dir_ / "run.log");
+  EXPECT_GE(expect_motion_fixes_match(dir_ / "can.log", run), 45u);
 
   // The recording holds gpsd's reports, and replaying it joins the same positions to the same pairs.
   const std::string jsonl = test::read_text(dir_ / "rec" / "gps.jsonl");
@@ -147,10 +169,10 @@ TEST_F(GpsRunTest, AMisbehavingGpsdLeavesEveryMeasurementAlone) {
 
 TEST_F(GpsRunTest, WithoutGpsdEveryPairIsMeasuredWithoutPosition) {
   const path config = write_config(test::free_loopback_port());  // nobody listens there
-  ASSERT_EQ(
-      test::run_rutd("run --config " + test::quoted(config) + " --frames 10 --csv " + test::quoted(dir_ / "run.csv"),
-                     (dir_ / "run.log").string()),
-      0)
+  ASSERT_EQ(test::run_rutd("run --config " + test::quoted(config) + " --frames 10 --csv " +
+                               test::quoted(dir_ / "run.csv") + " --candump " + test::quoted(dir_ / "can.log"),
+                           (dir_ / "run.log").string()),
+            0)
       << test::read_text(dir_ / "run.log");
   const MeasurementCsv run = read_measurement_csv((dir_ / "run.csv").string());
   ASSERT_GE(run.rows.size(), 10u);
@@ -158,6 +180,7 @@ TEST_F(GpsRunTest, WithoutGpsdEveryPairIsMeasuredWithoutPosition) {
     EXPECT_EQ(r.position.mode, GeoFix::Mode::NoFix) << "seq " << r.seq;
     EXPECT_EQ(r.measurement.status, RutStatus::Ok) << "seq " << r.seq;
   }
+  EXPECT_GE(expect_motion_fixes_match(dir_ / "can.log", run), 10u);
   const std::string log = test::read_text(dir_ / "run.log");
   EXPECT_NE(log.find("no gpsd at 127.0.0.1"), std::string::npos) << log;
   EXPECT_NE(log.find("0 pairs with a position"), std::string::npos) << log;

@@ -3,7 +3,9 @@
 // and the speed is cut for a while, `rutd replay --segments` measures it, and the segment CSV must equal
 // an independent computation (tests/integration/segments_from_recording.py: canmatrix decodes vehicle.log
 // with its own J1939 database, tests/unit/trafficability_reference.py does the rest from the per-frame
-// CSV). A second replay gives the same file byte for byte.
+// CSV). The candump log of the replay carries RutMotion with every measurement: canmatrix decodes it with
+// config/rutd.dbc, and its speed state and track distance must equal the reference's motion per frame
+// (speed unknown exactly where the reference has none). A second replay gives the same file byte for byte.
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -14,6 +16,7 @@
 
 #include <gtest/gtest.h>
 
+#include "decoded_candump.hpp"
 #include "test_support.hpp"
 
 namespace rutd {
@@ -113,7 +116,8 @@ TEST(TrafficabilityReplay, SegmentsEqualAnIndependentComputationAndReplayIsExact
   }
   const fs::path log = tmp.path() / "replay.log";
   ASSERT_EQ(run_rutd("replay " + quoted(rec) + " --out " + quoted(tmp.path() / "m.csv") + " --segments " +
-                         quoted(tmp.path() / "seg.csv") + " --config " + quoted(config),
+                         quoted(tmp.path() / "seg.csv") + " --config " + quoted(config) + " --candump " +
+                         quoted(tmp.path() / "can.log"),
                      log.string()),
             0)
       << read_text(log);
@@ -172,6 +176,35 @@ TEST(TrafficabilityReplay, SegmentsEqualAnIndependentComputationAndReplayIsExact
   EXPECT_EQ(damage[0].at("rule"), "\"mineral soil (Finland)\"");
   EXPECT_GT(num(damage[0].at("rutted_m")), 0.3) << "the drive's 80 mm stretch";
   EXPECT_GT(num(damage[0].at("share")), 0.0);
+  // Per measurement on CAN: RutMotion, after its RutConditions, says whether the speed was known and where
+  // on the track the measurement lies, as the reference computes it.
+  bool decoded_ok = false;
+  const auto can = test::decode_candump(tmp.path() / "can.log", decoded_ok);
+  EXPECT_TRUE(decoded_ok) << "the decoder reported a problem (CRC, counter, unknown frame)";
+  const auto motion = test::frames_of(can, "RutMotion");
+  const auto motion_want = read_rows(tmp.path() / "motion_ref.csv");
+  ASSERT_EQ(motion.size(), motion_want.size()) << "one RutMotion frame per measurement";
+  ASSERT_EQ(test::frames_of(can, "RutMeasurement1").size(), motion.size());
+  std::size_t unknown = 0, known = 0;
+  for (std::size_t i = 0; i < motion.size(); ++i) {
+    const auto& f = motion[i];
+    const std::string at = "measurement " + std::to_string(i);
+    EXPECT_EQ(f.t_ns, std::stoll(motion_want[i].at("t_ns")) / 1000 * 1000) << at;
+    EXPECT_EQ(f.named.at("PositionFix"), "NO_SOURCE") << at;
+    if (motion_want[i].at("distance_m").empty()) {
+      ++unknown;
+      EXPECT_NE(f.named.at("SpeedState"), "OK") << at;
+      EXPECT_TRUE(f.na.at("VehicleSpeed")) << at;
+      EXPECT_TRUE(f.na.at("TrackDistance")) << at;
+    } else {
+      ++known;
+      EXPECT_EQ(f.named.at("SpeedState"), "OK") << at;
+      EXPECT_FALSE(f.na.at("VehicleSpeed")) << at;
+      EXPECT_NEAR(f.phys.at("TrackDistance"), num(motion_want[i].at("distance_m")), 0.006) << at;
+    }
+  }
+  EXPECT_GT(known, 100u);
+  EXPECT_GE(unknown, 3u) << "the silence from 3.9 s to 4.5 s: stale from 4.4 s (max_age_ms 500)";
   // The hostile frames were counted, not used.
   EXPECT_NE(replay_log.find("trafficability:"), std::string::npos) << replay_log;
 

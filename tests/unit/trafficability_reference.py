@@ -2,8 +2,9 @@
 """Independent reference of trafficability/ (docs/DESIGN.md, the definitions in
 trafficability/include/trafficability/*.hpp), written from those definitions in plain Python, for
 test_trafficability.cpp. Reads speed.csv (t_ns,state,speed_mm_s) and frames.csv
-(t_ns,status,depth_mm,width_mm,area_mm2,u_mm), config.csv (key,value), writes segments.csv and
-damage.csv to the folder given.
+(t_ns,status,depth_mm,width_mm,area_mm2,u_mm), config.csv (key,value), writes segments_ref.csv,
+damage_ref.csv and motion_ref.csv (per frame: t_ns, distance_m, empty while the speed is unknown) to the
+folder given.
 
 Usage: trafficability_reference.py FOLDER
 """
@@ -151,6 +152,11 @@ def main(folder):
         out.write(",".join(keys) + "\n")
         for r in rows:
             out.write(",".join(repr(r[key]) for key in keys) + "\n")
+
+    with open(f"{folder}/motion_ref.csv", "w") as out:
+        out.write("t_ns,distance_m\n")
+        for f, d in zip(frames, dist):
+            out.write(f"{f['t_ns']},{'' if d is None else repr(d)}\n")
 
     with open(f"{folder}/damage_ref.csv", "w") as out:
         out.write("rule,rutted_m,measured_m,unmeasured_m,stretches\n")

@@ -11,9 +11,10 @@
 //   RutConditions    PGN 0xFF53  -> 0x18FF53A0
 //   RutSegment       PGN 0xFF54  -> 0x18FF54A0
 //   RutSegmentStats  PGN 0xFF55  -> 0x18FF55A0
+//   RutMotion        PGN 0xFF56  -> 0x18FF56A0
 //   RutSoftwareVersion PGN 0xFF5F -> 0x18FF5FA0
 // or, with `extended = false`, the 11-bit identifiers of CanIdConfig (0x350, 0x351, 0x352, 0x353, 0x354,
-// 0x355, 0x35F).
+// 0x355, 0x356, 0x35F).
 //
 // Payload, every frame 8 bytes, signals little-endian (Intel), unsigned, physical = raw * factor +
 // offset. Protection in the AUTOSAR E2E profile 1 layout:
@@ -23,7 +24,7 @@
 //                   measurement frames of one measurement carry the same value; the status frame
 //                   and the version frame have their own counters.
 //   Data IDs        RutMeasurement1 0xFF50, RutMeasurement2 0xFF51, RutSensorStatus 0xFF52,
-//                   RutConditions 0xFF53, RutSegment 0xFF54, RutSegmentStats 0xFF55,
+//                   RutConditions 0xFF53, RutSegment 0xFF54, RutSegmentStats 0xFF55, RutMotion 0xFF56,
 //                   RutSoftwareVersion 0xFF5F. They are
 //                   fixed per message (not derived from the configured identifiers) so a receiver's
 //                   check does not depend on the addressing. Unlike a strict profile 1 CRC (which
@@ -48,6 +49,24 @@
 //                    bits 36..47   vertical disparity  0.01 px, offset -20 px: -20..+20.94 px
 //                    bits 48..55   left lens obstructed   0.4 %   0..100 % of the strip's blocks
 //                    bits 56..63   right lens obstructed  0.4 %   0..100 %
+//   RutMotion        the vehicle's motion and position at the measurement's capture time (PublishedFrame::
+//                    motion and ::position), so a receiver knows per measurement whether it lies on the
+//                    track: same counter as the measurement's frames, sent right after RutConditions, only
+//                    by a daemon with a speed or a positioning source (CanSink::enable_motion)
+//                    byte 1 bits 4-7  speed state (SpeedState number: 0 OK, 1 NOT_AVAILABLE, 2 ERROR,
+//                                  3 STALE, 4 NO_SOURCE): anything but 0 is "speed unknown"
+//                    bits 16..31   vehicle speed  0.01 km/h, offset -320 km/h: -320..+335.34 km/h, negative
+//                                  while reversing; not available unless the speed state is OK
+//                    bits 32..55   track distance  0.01 m  0..167772.14 m of new ground since the start
+//                                  (VehicleMotion::distance_m); not available while it is unknown
+//                    bits 56..59   position fix: 1 no fix in force (gpsd absent or silent, no fix, or
+//                                  the fix stale), 2 2D, 3 3D; 15 no positioning source (GeoFix::Mode
+//                                  None); 0 is not sent
+//                    bits 60..63   reserved, all ones
+//                    Worked example: moving forward at 7.2 km/h, 12.34 m along the track, a 3D fix, counter
+//                    0: speed (7.2 + 320) / 0.01 = 32720 = 0x7FD0, distance 1234 = 0x0004D2; bytes 1..7 =
+//                    00 D0 7F D2 04 00 F3; CRC over 56 FF 00 D0 7F D2 04 00 F3 = 0x9A. In candump:
+//                    18FF56A0#9A00D07FD20400F3.
 //   RutSensorStatus  byte 1 bits 4-7  status of the latest measurement (SensorHealth::last_status)
 //                    bits 16..23   health flags, one bit each in SensorHealth's order: no camera,
 //                                  stale frames, calibration invalid, low texture, frame drops,
@@ -108,6 +127,7 @@ struct CanIdConfig {
   std::uint32_t conditions_pgn = 0xFF53;
   std::uint32_t segment_pgn = 0xFF54;
   std::uint32_t segment_stats_pgn = 0xFF55;
+  std::uint32_t motion_pgn = 0xFF56;
   std::uint32_t version_pgn = 0xFF5F;
   std::uint32_t measurement1_id_11bit = 0x350;  // 0..0x7FF
   std::uint32_t measurement2_id_11bit = 0x351;
@@ -115,6 +135,7 @@ struct CanIdConfig {
   std::uint32_t conditions_id_11bit = 0x353;
   std::uint32_t segment_id_11bit = 0x354;
   std::uint32_t segment_stats_id_11bit = 0x355;
+  std::uint32_t motion_id_11bit = 0x356;
   std::uint32_t version_id_11bit = 0x35F;
 };
 
@@ -133,6 +154,7 @@ inline constexpr std::uint16_t kStatusDataId = 0xFF52;
 inline constexpr std::uint16_t kConditionsDataId = 0xFF53;
 inline constexpr std::uint16_t kSegmentDataId = 0xFF54;
 inline constexpr std::uint16_t kSegmentStatsDataId = 0xFF55;
+inline constexpr std::uint16_t kMotionDataId = 0xFF56;
 inline constexpr std::uint16_t kVersionDataId = 0xFF5F;
 
 class CanEncoder {  // not thread-safe: one publisher thread owns it. Keeps the rolling counters.
@@ -147,6 +169,10 @@ class CanEncoder {  // not thread-safe: one publisher thread owns it. Keeps the 
   // The RutConditions frame of the measurement last passed to encode_measurement (its counter value):
   // what the frame checks saw, whatever the status. Send it right after that measurement's frames.
   CanFrame encode_conditions(const RutMeasurement& m) const noexcept;
+
+  // The RutMotion frame of the measurement last passed to encode_measurement (its counter value): the
+  // vehicle's motion and the position fix in force at its capture time.
+  CanFrame encode_motion(const VehicleMotion& motion, const GeoFix& position) const noexcept;
 
   // The RutSensorStatus frame. Advances the status counter.
   CanFrame encode_status(const SensorHealth& h) noexcept;

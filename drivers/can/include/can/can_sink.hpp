@@ -30,7 +30,8 @@ enum class CandumpTime : std::uint8_t {
 // not logged. RecordingError is whatever recording_failed answers at each status (the daemon: the raw
 // recording has failed, or a measurement CSV row was lost since the last status). The software version
 // goes out as RutSoftwareVersion with the first status frame and then once a second (status time), so a
-// receiver that joins the bus late learns within a second what is sending.
+// receiver that joins the bus late learns within a second what is sending. With enable_motion, RutMotion
+// says per measurement whether the speed was known and where the vehicle was.
 class CanSink final : public MeasurementSink {
  public:
   // bus and log may be null (not configured); neither is owned, both must outlive the sink. log_stream
@@ -41,6 +42,10 @@ class CanSink final : public MeasurementSink {
   CanSink(const CanIdConfig& ids, SocketCanBus* bus, CandumpLogWriter* log, std::ostream* log_stream,
           std::function<bool()> recording_failed = {}, CandumpTime log_time = CandumpTime::WallClock,
           std::optional<SoftwareVersion> version = {});
+  // From now on, RutMotion follows every measurement's RutConditions (the frame's motion and position).
+  // Off by default: only a daemon with a vehicle speed source or a positioning source has anything to say
+  // there.
+  void enable_motion() noexcept { motion_ = true; }
   void publish(const PublishedFrame& frame) override;
   void publish_status(const SensorHealth& health, std::int64_t t_ns) override;
   // RutSegment and RutSegmentStats, stamped (FrameClock) with the segment's last frame's time.
@@ -59,6 +64,7 @@ class CanSink final : public MeasurementSink {
   std::array<CanFrame, 2> frames_{};
   std::uint64_t not_sent_at_last_status_ = 0;
   std::optional<SoftwareVersion> version_;
+  bool motion_ = false;
   std::optional<std::int64_t> version_sent_ns_;  // status time of the last RutSoftwareVersion frame
 };
 
