@@ -199,7 +199,13 @@ int run_daemon(const RunOptions& o, const RunInjection& injection) {
   SpeedSamplePull pull;
   if (speed) pull = [r = speed.get()](std::int64_t up_to, SpeedSample& out) { return r->next(up_to, out); };
   SinkFanout fanout(sinks);
-  TrafficabilitySink traffic(fanout, std::move(pull), c.trafficability.odometer, c.trafficability.segments);
+  // A frame reaches publishing at most max_frame_age after its capture (older ones are refused as stale);
+  // with no age limit, 1 s is as late as it matters. The margin covers the publish stage's own time.
+  const auto max_age =
+      c.pipeline.max_frame_age.count() > 0 ? c.pipeline.max_frame_age : std::chrono::milliseconds(1000);
+  const std::int64_t status_lag_ns = std::chrono::nanoseconds(max_age + std::chrono::milliseconds(100)).count();
+  TrafficabilitySink traffic(fanout, std::move(pull), c.trafficability.odometer, c.trafficability.segments,
+                             status_lag_ns);
   // Positions (gps): gpsd read on its own thread, joined to every pair before the sinks (and the segments)
   // see it, and its reports recorded beside the pairs (gps.jsonl) when recording.
   std::unique_ptr<GpsJsonlWriter> gps_record;

@@ -8,8 +8,13 @@
 namespace rutd {
 
 TrafficabilitySink::TrafficabilitySink(MeasurementSink& downstream, SpeedSamplePull pull,
-                                       const OdometerConfig& odometer, const SegmentConfig& segments)
-    : downstream_(downstream), pull_(std::move(pull)), odometer_(odometer), tracker_(segments) {}
+                                       const OdometerConfig& odometer, const SegmentConfig& segments,
+                                       std::int64_t status_lag_ns)
+    : downstream_(downstream),
+      pull_(std::move(pull)),
+      odometer_(odometer),
+      tracker_(segments),
+      status_lag_ns_(status_lag_ns) {}
 
 void TrafficabilitySink::take_samples(std::int64_t up_to_ns) {
   if (!pull_) return;
@@ -30,7 +35,7 @@ void TrafficabilitySink::publish(const PublishedFrame& frame) {
 }
 
 void TrafficabilitySink::publish_status(const SensorHealth& health, std::int64_t t_ns) {
-  take_samples(t_ns);  // keeps the receiver's queue short while no frame is published
+  take_samples(t_ns - status_lag_ns_);  // keeps the receiver's queue short while no frame is published
   downstream_.publish_status(health, t_ns);
 }
 

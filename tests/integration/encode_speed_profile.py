@@ -2,8 +2,8 @@
 """Writes a candump log of J1939 CCVS frames (wheel-based vehicle speed) encoded by canmatrix from its own
 J1939 database (canmatrix/j1939.dbc), for a speed profile: a vehicle as rutd would hear it on the bus.
 
-Usage: encode_speed_profile.py OUT RATE_HZ DURATION_S T_S:KMH,... [GAP_FROM_S:GAP_TO_S]
-  linear between knots; no frames inside the gap (the sender falls silent). Identifier 18FEF100
+Usage: encode_speed_profile.py OUT RATE_HZ DURATION_S T_S:KMH,... [GAP_FROM_S:GAP_TO_S,...]
+  linear between knots; no frames inside the gaps (the sender falls silent). Identifier 18FEF100
   (priority 6, source address 0x00). Exit 2 if canmatrix is missing.
 """
 import os
@@ -20,7 +20,7 @@ def main(out, rate, duration, profile, gap):
     db = canmatrix.formats.loadp_flat(os.path.join(os.path.dirname(canmatrix.__file__), "j1939.dbc"))
     ccvs = db.frame_by_name("CCVS")
     knots = [tuple(map(float, k.split(":"))) for k in profile.split(",")]
-    gap_from, gap_to = map(float, gap.split(":")) if gap else (-1.0, -1.0)
+    gaps = [tuple(map(float, g.split(":"))) for g in gap.split(",")] if gap else []
 
     def speed(t):
         if t <= knots[0][0]:
@@ -33,7 +33,7 @@ def main(out, rate, duration, profile, gap):
     with open(out, "w") as log:
         for i in range(int(duration * rate) + 1):
             t = i / rate
-            if gap_from <= t < gap_to:
+            if any(a <= t < b for a, b in gaps):
                 continue
             # canmatrix's encode() takes raw values: 1/256 km/h counts.
             data = ccvs.encode({"Wheel_Based_Vehicle_Speed": round(speed(t) * 256)})

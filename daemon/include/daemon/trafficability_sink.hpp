@@ -26,9 +26,13 @@ using SpeedSamplePull = std::function<bool(std::int64_t up_to_ns, SpeedSample& o
 class TrafficabilitySink final : public MeasurementSink {
  public:
   // downstream: not owned, outlives this. pull: empty when no speed source is configured (every frame's
-  // motion is then NoSource and no segment is made).
+  // motion is then NoSource and no segment is made). status_lag_ns: how far behind a status's time the
+  // frames still to be published may have been captured (live: the pipeline's max_frame_age and a
+  // margin; replay, whose statuses follow the frames' times: 0). A status drains the samples received up
+  // to its time minus that lag only, so it never feeds the odometer a sample received after the capture
+  // of a frame not yet published: that frame's motion is what a replay computes.
   TrafficabilitySink(MeasurementSink& downstream, SpeedSamplePull pull, const OdometerConfig& odometer,
-                     const SegmentConfig& segments);
+                     const SegmentConfig& segments, std::int64_t status_lag_ns = 0);
   void publish(const PublishedFrame& frame) override;
   void publish_status(const SensorHealth& health, std::int64_t t_ns) override;
   void publish_segment(const Segment& segment) override { downstream_.publish_segment(segment); }
@@ -51,6 +55,7 @@ class TrafficabilitySink final : public MeasurementSink {
   Odometer odometer_;
   SegmentTracker tracker_;
   PublishedFrame frame_;  // the frame handed on, with its motion
+  std::int64_t status_lag_ns_;
 };
 
 }  // namespace rutd
