@@ -273,8 +273,9 @@ TEST_F(GuestKernel, RutdSendsOnVcanWhatItLogs) {
 }
 
 // The vehicle speed on a real kernel's vcan: canplayer (can-utils) plays J1939 CCVS frames encoded by
-// canmatrix from its own J1939 database (tests/integration/encode_speed_profile.py: stop and go every 4 s,
-// the sender silent for 0.8 s in each cycle) while cangen floods the bus with another parameter group
+// canmatrix from its own J1939 database (tests/integration/encode_speed_profile.py: every 4 s forward,
+// a stop, reversing (the direction from ETC2's current gear, trafficability.speed.direction_from_gear),
+// a stop and the sender silent for 0.8 s) while cangen floods the bus with another parameter group
 // (asked for 2,000 frames a second; under emulation (TCG) a few hundred reach the bus, all of them with
 // KVM: the kernel's own count, /proc/net/can/stats, is printed). `rutd run --speed-socketcan vcan0` must
 // get the speed through its kernel filters (none of the flood reaches it, none of its frames is dropped
@@ -290,24 +291,33 @@ TEST_F(GuestKernel, RutdReceivesTheSpeedThroughKernelFiltersUnderAFlood) {
   for (int c = 0; c < 15; ++c) {
     const double b = 4.0 * c;
     char k[160], g[40];
-    std::snprintf(k, sizeof k, "%s%.1f:10.8,%.1f:10.8,%.1f:0,%.1f:0,%.1f:10.8", c ? "," : "", b, b + 1.5, b + 2,
-                  b + 2.6, b + 3);
+    std::snprintf(k, sizeof k, "%s%.1f:10.8,%.1f:10.8,%.1f:0,%.1f:0,%.1f:-3.6,%.1f:-3.6,%.1f:0", c ? "," : "", b,
+                  b + 1.5, b + 2, b + 2.3, b + 2.5, b + 2.9, b + 3.1);
     std::snprintf(g, sizeof g, "%s%.1f:%.1f", c ? "," : "", b + 3.2, b + 4);
     knots += k;
     gaps += g;
   }
   ASSERT_EQ(run_shell(std::string(kPython) + " " +
                       quoted(fs::path(RUTD_SOURCE_DIR) / "tests/integration/encode_speed_profile.py") + " " +
-                      quoted(log) + " 50 60 " + knots + " " + gaps + " 2>/dev/null"),
+                      quoted(log) + " 50 60 " + knots + " " + gaps + " gear 2>/dev/null"),
             0)
       << "canmatrix (python3-canmatrix) is needed";
+  // The installed configuration with the direction from the gear (the guest reads the host's files).
+  const fs::path config = cache_dir() / ("gear-" + std::to_string(::getpid()) + ".yaml");
+  {
+    std::string text = read_text(fs::path(RUTD_SOURCE_DIR) / "config/rutd.yaml");
+    const std::string from = "direction_from_gear: false";
+    ASSERT_NE(text.find(from), std::string::npos);
+    text.replace(text.find(from), from.size(), "direction_from_gear: true");
+    std::ofstream(config) << text;
+  }
   const GuestRun run = boot(
       "cangen vcan0 -e -I 18FEF200 -L 8 -g 0.5 &\nflood=$!\n"
       "canplayer -I " +
       quoted(log) + " vcan0=can0 &\nplayer=$!\n" +
       "t0=$(cut -d' ' -f1 /proc/uptime); f0=$(awk '/transmitted frames/{print $1}' /proc/net/can/stats)\n" +
-      quoted(RUTD_BINARY) +
-      " run --frames 150 --size 320x240 --engine bm --no-dic --candump '' --speed-socketcan vcan0"
+      quoted(RUTD_BINARY) + " run --config " + quoted(config) +
+      " --frames 150 --size 320x240 --engine bm --no-dic --candump '' --speed-socketcan vcan0"
       " --segments /mnt/segments.csv --csv /mnt/m.csv --record /mnt/rec 2>/mnt/run.log\n"
       "echo RUTD-RUN-EXIT=$?\n"
       "t1=$(cut -d' ' -f1 /proc/uptime); f1=$(awk '/transmitted frames/{print $1}' /proc/net/can/stats)\n"
@@ -316,6 +326,7 @@ TEST_F(GuestKernel, RutdReceivesTheSpeedThroughKernelFiltersUnderAFlood) {
       "for f in run.log segments.csv m.csv rec/vehicle.log; do\n"
       "  echo \"----- BEGIN $f -----\"; cat /mnt/$f; echo \"----- END $f -----\"\ndone\n");
   fs::remove(log);
+  fs::remove(config);
   SKIP_IF_NO_GUEST();
   ASSERT_TRUE(guest_completed(run));
   EXPECT_EQ(value_after(run.console, "RUTD-RUN-EXIT="), "0") << run.console;
@@ -360,15 +371,15 @@ TEST_F(GuestKernel, RutdReceivesTheSpeedThroughKernelFiltersUnderAFlood) {
   write(work / "live.csv", *segments);
   const fs::path tests(fs::path(RUTD_SOURCE_DIR) / "tests");
   ASSERT_EQ(run_shell(std::string(kPython) + " " + quoted(tests / "integration/segments_from_recording.py") + " " +
-                      quoted(work / "rec") + " " + quoted(work / "m.csv") + " " + quoted(work) + " 2>/dev/null"),
+                      quoted(work / "rec") + " " + quoted(work / "m.csv") + " " + quoted(work) + " gear 2>/dev/null"),
             0);
   std::ofstream(work / "config.csv") << "length_m,1\nmax_age_ns,500000000\ncaution_depth_mm,80\nno_go_depth_mm,150\n"
                                         "hysteresis_m,3\nmax_untrusted_fraction,0.5\nmin_trusted_frames,3\n"
                                         "coverage_factor,2\nsoil_table,0:1 1:0\nlimit_one_pass,0\n"
                                         "limit_fifty_passes,0\ndamage,100:1 200:1 200:4\n";
-  ASSERT_EQ(run_shell(std::string(kPython) + " " + quoted(tests / "unit/trafficability_reference.py") + " " +
-                      quoted(work)),
-            0);
+  ASSERT_EQ(
+      run_shell(std::string(kPython) + " " + quoted(tests / "unit/trafficability_reference.py") + " " + quoted(work)),
+      0);
   const auto live = lines_of(read_text(work / "live.csv"));
   const auto want = lines_of(read_text(work / "segments_ref.csv"));
   ASSERT_GE(live.size(), 4u) << "header and at least 3 segments\n" << text;
@@ -404,6 +415,10 @@ TEST_F(GuestKernel, RutdReceivesTheSpeedThroughKernelFiltersUnderAFlood) {
     unknown += advisory == std::string("UNKNOWN");
   }
   EXPECT_GT(unknown, 0) << "the sender's silences left no segment UNKNOWN";
+  EXPECT_NE(text.find(" reversed"), std::string::npos) << text;
+  const std::regex reversed(R"(\(([0-9.]+) m reversed)");
+  ASSERT_TRUE(std::regex_search(text, m, reversed)) << text;
+  EXPECT_GT(std::stod(m[1]), 0.5) << "the vehicle reversed about 0.3 m in every 4 s";
   if (!HasFailure()) fs::remove_all(work);
 }
 
