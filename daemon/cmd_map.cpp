@@ -1,16 +1,20 @@
 // rutd map RECORDING|CSV... --out DIR: where the ruts are. Takes one drive per argument, in the order
 // driven: a recording folder with gps.jsonl (measured here as `rutd replay REC --positions` does, into
-// DIR/NAME.measured.csv) or a measurement CSV with positions (`rutd replay --positions --out`, or sinks.csv
-// with sinks.csv_positions), and writes into DIR:
+// DIR/NAME.measured.csv, and with its vehicle.log into the distance segments DIR/NAME.segments.csv), a
+// segment CSV with positions (trafficability.segments_csv of a run with gps, `rutd replay --positions
+// --segments`), or a measurement CSV with positions (`rutd replay --positions --out`, or sinks.csv with
+// sinks.csv_positions), and writes into DIR:
 //   track.geojson     one Point feature per track piece (WGS84 lon/lat) with its drive, pass, depth
 //                     (mean, max), depth uncertainty, horizontal error, heading, advisory and the sinkage
 //                     increase over the earlier pass where matched; opens in QGIS
 //   depth_by_pass.png the mean depth along each drive's track (PLplot)
 //   matched.csv       the matched pieces (trafficability/passes.hpp): which earlier piece, distance,
 //                     allowed error, heading difference, pass, sinkage increase and its uncertainty
-// Until distance segments (trafficability/) reach the recordings, a track piece is the stretch between two
-// receiver epochs: the consecutive measurements that share one fix, with their mean depth, its standard
-// error as the uncertainty and the distance between fixes as its length; advisory is UNKNOWN.
+// A track piece is a distance segment (trafficability/: segment_length_m of new ground, with its advisory and
+// the position at its middle) where the drive had a vehicle speed; without one (a measurement CSV, a
+// recording without vehicle.log), the stretch between two receiver epochs: the consecutive measurements
+// that share one fix, with their mean depth, its standard error as the uncertainty and the distance between
+// fixes as its length; advisory UNKNOWN. The GeoJSON's `piece_kind` says which ("segment" or "fix").
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
@@ -27,6 +31,7 @@
 #include "daemon/replay.hpp"
 #include "plots/plots.hpp"
 #include "recording/measurement_csv.hpp"
+#include "recording/segment_csv_sink.hpp"
 #include "trafficability/passes.hpp"
 
 namespace rutd {
@@ -37,23 +42,43 @@ struct MapOptions {
   std::string out;
   PassConfig passes;
   double max_fix_age_ms = GpsConfig{}.max_fix_age_ms;
+  std::string config;  // the trafficability section for recordings' segments; empty: the embedded default
   MeasureOptions measure;
 };
 
-// A drive's measurement CSV: the argument itself, or the measurement of the recording it names.
-std::string measured_csv(const std::string& drive, const MapOptions& o) {
-  if (!std::filesystem::is_directory(drive)) return drive;
+// Where a drive's track comes from: its segment CSV when it has one, else its measurement CSV.
+struct DriveFiles {
+  std::string measurements;
+  std::string segments;
+};
+
+bool is_segment_csv(const std::string& path) {
+  std::ifstream in(path);
+  std::string header;
+  std::getline(in, header);
+  return header.rfind("index,start_m,end_m,", 0) == 0;
+}
+
+// The argument itself, or what measuring the recording it names wrote.
+DriveFiles drive_files(const std::string& drive, const MapOptions& o) {
+  if (!std::filesystem::is_directory(drive)) {
+    if (is_segment_csv(drive)) return {{}, drive};
+    return {drive, {}};
+  }
   ReplayOptions r;
   r.dir = drive;
   std::string name = std::filesystem::path(drive).filename().string();
   if (name.empty()) name = std::filesystem::path(drive).parent_path().filename().string();
   r.out = (std::filesystem::path(o.out) / (name + ".measured.csv")).string();
+  if (std::filesystem::exists(std::filesystem::path(drive) / "vehicle.log"))
+    r.segments = (std::filesystem::path(o.out) / (name + ".segments.csv")).string();
+  r.config = o.config;
   r.positions = true;
   r.max_fix_age_ms = o.max_fix_age_ms;
   r.measure = o.measure;
   if (replay_recording(r) != 0)
     spdlog::warn("{}: some pairs could not be measured (see above); mapping the others", drive);
-  return r.out;
+  return {r.out, r.segments};
 }
 
 // Track pieces of one drive from its measurement rows (see the file comment).
@@ -133,13 +158,28 @@ int run_map(const MapOptions& o) {
   std::filesystem::create_directories(o.out, ec);
   if (ec) throw InputError(o.out, "--out", "cannot create the folder: " + ec.message());
   std::vector<std::vector<Segment>> drives;
+  std::vector<bool> of_segments;
   for (const std::string& drive : o.drives) {
-    const std::string path = measured_csv(drive, o);
-    const MeasurementCsv csv = read_measurement_csv(path);  // throws InputError naming file and line
+    const DriveFiles files = drive_files(drive, o);
+    if (!files.segments.empty()) {
+      drives.push_back(read_segment_csv(files.segments));  // throws InputError naming file, line and column
+      of_segments.push_back(true);
+      std::size_t located = 0;
+      for (const Segment& s : drives.back()) located += s.position.valid();
+      spdlog::info("{}: {} distance segments, {} with a position", files.segments, drives.back().size(), located);
+      if (located == 0) spdlog::warn("{}: no segment with a position; nothing to map from it", files.segments);
+      continue;
+    }
+    const MeasurementCsv csv = read_measurement_csv(files.measurements);  // throws InputError naming file and line
     if (!csv.has_positions)
-      throw InputError(path, "line 1", "no position columns (measure with positions: rutd replay --positions)");
+      throw InputError(files.measurements, "line 1",
+                       "no position columns (measure with positions: rutd replay --positions)");
     drives.push_back(pieces_of(csv));
-    if (drives.back().empty()) spdlog::warn("{}: no measurement with a position; nothing to map from it", path);
+    of_segments.push_back(false);
+    spdlog::info("{}: no vehicle speed, so {} pieces between fixes (advisory UNKNOWN)", files.measurements,
+                 drives.back().size());
+    if (drives.back().empty())
+      spdlog::warn("{}: no measurement with a position; nothing to map from it", files.measurements);
   }
   const PassNumbering passes = number_passes(drives, o.passes);
 
@@ -157,14 +197,20 @@ int run_map(const MapOptions& o) {
   std::ostringstream geo;
   geo << R"({"type":"FeatureCollection","features":[)";
   bool first = true;
+  std::size_t unlocated = 0;  // segments without a fix (before the first, or gpsd lost): in the CSV, not here
   for (std::size_t d = 0; d < drives.size(); ++d) {
     for (std::size_t i = 0; i < drives[d].size(); ++i) {
       const Segment& s = drives[d][i];
+      if (!s.position.valid()) {
+        ++unlocated;
+        continue;
+      }
       geo << (first ? "" : ",") << "\n"
           << R"({"type":"Feature","geometry":{"type":"Point","coordinates":[)" << number(s.position.longitude_deg, 9)
           << "," << number(s.position.latitude_deg, 9) << "]},\"properties\":{\"drive\":" << d << ",\"source\":\""
           << json_text(std::filesystem::path(o.drives[d]).filename().string()) << "\",\"piece\":" << i
-          << ",\"pass\":" << s.pass << ",\"start_m\":" << number(s.start_m, 3) << ",\"end_m\":" << number(s.end_m, 3)
+          << ",\"piece_kind\":\"" << (of_segments[d] ? "segment" : "fix") << '"' << ",\"pass\":" << s.pass
+          << ",\"start_m\":" << number(s.start_m, 3) << ",\"end_m\":" << number(s.end_m, 3)
           << ",\"frames\":" << s.frames << ",\"refused\":" << s.refused
           << ",\"mean_depth_mm\":" << number(s.mean_depth_mm, 3) << ",\"max_depth_mm\":" << number(s.max_depth_mm, 3)
           << ",\"depth_uncertainty_mm\":" << number(s.depth_uncertainty_mm, 3)
@@ -237,8 +283,10 @@ int run_map(const MapOptions& o) {
   if (!png.ok) spdlog::error("{}", png.error);
   std::size_t pieces = 0;
   for (const auto& d : drives) pieces += d.size();
-  spdlog::info("map {}: {} drives, {} track pieces, {} matched to an earlier drive", o.out, drives.size(), pieces,
-               n_matched);
+  spdlog::info(
+      "map {}: {} drives, {} track pieces ({} without a position, not in the GeoJSON), {} matched to an "
+      "earlier drive",
+      o.out, drives.size(), pieces, unlocated, n_matched);
   return png.ok ? 0 : 1;
 }
 
@@ -250,7 +298,8 @@ void add_map_command(CLI::App& app, int& exit_code) {
       "map", "Map measured ruts: GeoJSON, depth along the track per pass (PNG) and the matched passes (CSV)");
   cmd->add_option("drives", o->drives,
                   "One per drive, in the order driven: a recording folder with gps.jsonl (measured here, as rutd "
-                  "replay --positions does), or a measurement CSV with positions")
+                  "replay --positions does; with vehicle.log, mapped by distance segments), a segment CSV with "
+                  "positions, or a measurement CSV with positions")
       ->required()
       ->check(CLI::ExistingPath);
   cmd->add_option("--out", o->out, "Output folder (created if missing)")->required();
@@ -265,6 +314,10 @@ void add_map_command(CLI::App& app, int& exit_code) {
                   "Recordings: a fix older than this at a pair's capture time is stale (gps.max_fix_age_ms)")
       ->capture_default_str()
       ->check(CLI::Range(10.0, 600000.0));
+  cmd->add_option("--config", o->config,
+                  "Recordings with vehicle.log: the trafficability section (speed, segment length, advisory) of "
+                  "this configuration file; default: the embedded one")
+      ->check(CLI::ExistingFile);
   add_measure_options(*cmd, o->measure);
   cmd->callback([o, &exit_code] { exit_code = run_map(*o); });
 }

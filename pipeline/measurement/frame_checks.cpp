@@ -263,6 +263,9 @@ void check_frame(const cv::Mat& left, const cv::Mat& right, const cv::Mat& dispa
     return;
   bool bottom_hidden = false;   // this check's own water finding (a waterline read through is not one)
   bool unsynchronised = false;  // a known skew explains the views' disagreement (ConditionConfig)
+  // A camera that sees no texture anywhere while the other does: covered whole. No skew explains that
+  // (motion moves the texture, it does not erase it), so it stands beside UNSYNCHRONISED.
+  bool covered_left = false, covered_right = false;
   try {
     const cv::Mat* strips[2] = {&left, &right};
     StripStats stats[2];
@@ -350,8 +353,11 @@ void check_frame(const cv::Mat& left, const cv::Mat& right, const cv::Mat& dispa
       for (double t : s.texture[static_cast<std::size_t>(k)]) flat += t < c.min_texture;
       return flat >= 0.9 * double(s.texture[static_cast<std::size_t>(k)].size());
     };
-    if (!mostly_matched && flat_everywhere(0) && !flat_everywhere(1)) m.obstructed_left = 1.0;
-    if (!mostly_matched && flat_everywhere(1) && !flat_everywhere(0)) m.obstructed_right = 1.0;
+    const bool flat_left = flat_everywhere(0), flat_right = flat_everywhere(1);
+    covered_left = !mostly_matched && flat_left && !flat_right;
+    covered_right = !mostly_matched && flat_right && !flat_left;
+    if (covered_left) m.obstructed_left = 1.0;
+    if (covered_right) m.obstructed_right = 1.0;
     if (m.obstructed_left >= c.obstruction_min_fraction) m.conditions |= kConditionLeftObstructed;
     if (m.obstructed_right >= c.obstruction_min_fraction) m.conditions |= kConditionRightObstructed;
 
@@ -384,9 +390,10 @@ void check_frame(const cv::Mat& left, const cv::Mat& right, const cv::Mat& dispa
     const VerticalOffsets v = vertical_disparity(left, right, disparity, row_begin, row_end, d0, band, c, s);
     m.vertical_disparity_px = v.largest;
     const bool offset = v.found > 0 && 3 * v.beyond >= v.found;
-    // A known skew explains offsets beyond the limit, or views too far apart to correlate at all.
+    // A known skew explains offsets beyond the limit, or views too far apart to correlate at all; not a
+    // view with nothing to correlate (no texture in one or both: a covered lens, a featureless scene).
     unsynchronised = std::abs(static_cast<double>(skew_ns)) * 1e-6 >= c.unsynchronised_skew_ms &&
-                     c.unsynchronised_skew_ms > 0 && (offset || v.found == 0);
+                     c.unsynchronised_skew_ms > 0 && (offset || (v.found == 0 && !flat_left && !flat_right));
     if (offset && !unsynchronised) m.conditions |= kConditionCalibrationDrift;
 
     // Water / flat patch inside the rut opening, against the texture of the ground outside it.
@@ -419,11 +426,19 @@ void check_frame(const cv::Mat& left, const cv::Mat& right, const cv::Mat& dispa
   if (m.conditions & (kConditionLowLight | kConditionOverexposed)) {
     m.status = RutStatus::BadExposure;
   } else if (unsynchronised) {
-    // The views show the ground at two moments: what their comparison raised is the motion's.
-    m.conditions &= static_cast<std::uint8_t>(
-        ~(kConditionLeftObstructed | kConditionRightObstructed | kConditionVegetation | kConditionCalibrationDrift));
-    m.obstructed_left = m.obstructed_right = 0.0;
-    m.status = RutStatus::Unsynchronised;
+    // The views show the ground at two moments: what their comparison raised is the motion's, except a
+    // lens covered whole, which is then the status (cleaning it comes before pairing the cameras).
+    std::uint8_t motion_bits = kConditionVegetation | kConditionCalibrationDrift;
+    if (!covered_left) {
+      motion_bits |= kConditionLeftObstructed;
+      m.obstructed_left = 0.0;
+    }
+    if (!covered_right) {
+      motion_bits |= kConditionRightObstructed;
+      m.obstructed_right = 0.0;
+    }
+    m.conditions &= static_cast<std::uint8_t>(~motion_bits);
+    m.status = covered_left || covered_right ? RutStatus::LensObstructed : RutStatus::Unsynchronised;
   } else if (m.conditions & (kConditionLeftObstructed | kConditionRightObstructed)) {
     m.status = RutStatus::LensObstructed;
   } else if (m.conditions & kConditionCalibrationDrift) {

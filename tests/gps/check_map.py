@@ -2,7 +2,11 @@
 """Checks `rutd map` output with readers rutd did not write: the GeoJSON through shapely (every geometry a
 valid point, coordinates equal to positions of the drives' NMEA logs within their resolution, 1e-5 minute) and GDAL's ogrinfo (opens it as a
 layer with the expected feature count and fields); matched.csv and the PNG's presence. Prints one JSON line of
-figures for the test to assert on; exits 1 with a message on any failure."""
+figures for the test to assert on; exits 1 with a message on any failure.
+
+Usage: check_map.py MAP_DIR TRUTH_CSV... (one truth per drive, in the map's drive order). Where a feature lies
+along its drive comes from the truth it matches (speed x time since the drive's first epoch), not from the
+map's own distances."""
 import csv
 import json
 import subprocess
@@ -16,20 +20,24 @@ def main():
     with open(f"{out_dir}/track.geojson") as f:
         doc = json.load(f)
     feats = doc["features"]
-    positions = []
-    for path in truths:  # nmea_drive.py's truth: the positions as written in the log
+    drives = []  # per drive: (lon, lat, metres along the drive) of nmea_drive.py's truth, as written in the log
+    for path in truths:
         with open(path) as f:
-            for row in csv.DictReader(f):
-                if row["fix"] == "1":
-                    positions.append((float(row["lon_deg"]), float(row["lat_deg"])))
+            rows = [r for r in csv.DictReader(f) if r["fix"] == "1"]
+        t0 = float(rows[0]["utc_s"])
+        drives.append([(float(r["lon_deg"]), float(r["lat_deg"]), (float(r["utc_s"]) - t0) * float(r["speed_m_s"]))
+                       for r in rows])
     resolution = 1e-5 / 60.0
     for ft in feats:
         g = shape(ft["geometry"])
         if g.geom_type != "Point" or not g.is_valid:
             sys.exit(f"feature {ft['properties']} is not a valid point")
-        if not any(abs(g.x - x) <= resolution and abs(g.y - y) <= resolution for x, y in positions):
-            sys.exit(f"feature at {g.x},{g.y} is not a position of the logs")
-        for key in ("mean_depth_mm", "pass", "advisory", "depth_uncertainty_mm", "horizontal_error_m"):
+        d = ft["properties"]["drive"]
+        along = [a for x, y, a in drives[d] if abs(g.x - x) <= resolution and abs(g.y - y) <= resolution]
+        if not along:
+            sys.exit(f"feature at {g.x},{g.y} is not a position of drive {d}'s log")
+        ft["properties"]["truth_along_m"] = along[0]
+        for key in ("mean_depth_mm", "pass", "advisory", "depth_uncertainty_mm", "horizontal_error_m", "piece_kind"):
             if key not in ft["properties"]:
                 sys.exit(f"feature without {key}")
     info = subprocess.run(["ogrinfo", "-ro", "-al", "-so", f"{out_dir}/track.geojson"], capture_output=True,
@@ -50,14 +58,18 @@ def main():
         p = ft["properties"]
         by_drive.setdefault(p["drive"], []).append(p)
     second = by_drive.get(1, [])
+    props = [ft["properties"] for ft in feats]
     print(json.dumps({
         "features": len(feats),
+        "segments": sum(1 for p in props if p["piece_kind"] == "segment"),
+        "one_metre": sum(1 for p in props if abs(p["end_m"] - p["start_m"] - 1.0) < 1e-6),
+        "advisory_known": sum(1 for p in props if p["advisory"] != "UNKNOWN"),
         "matched": len(matched),
         "median_increase_mm": inc[len(inc) // 2] if inc else None,
-        "second_pass_before_turn": sum(1 for p in second if p["end_m"] <= 7.0),
-        "second_pass_before_turn_matched": sum(1 for p in second if p["end_m"] <= 7.0 and p["pass"] == 1),
-        "second_pass_after_turn": sum(1 for p in second if p["start_m"] >= 10.0),
-        "second_pass_after_turn_matched": sum(1 for p in second if p["start_m"] >= 10.0 and p["pass"] > 0),
+        "second_pass_before_turn": sum(1 for p in second if p["truth_along_m"] <= 7.0),
+        "second_pass_before_turn_matched": sum(1 for p in second if p["truth_along_m"] <= 7.0 and p["pass"] == 1),
+        "second_pass_after_turn": sum(1 for p in second if p["truth_along_m"] >= 10.0),
+        "second_pass_after_turn_matched": sum(1 for p in second if p["truth_along_m"] >= 10.0 and p["pass"] > 0),
     }, separators=(",", ":")))
 
 

@@ -176,6 +176,32 @@ TEST(FrameChecks, ViewsTooFarApartToCorrelateWithAKnownSkewAreUnsynchronised) {
 
 // Standing water (or any flat patch) in the rut: inside the opening both views are flat and nothing
 // matched over 60 mm; the bottom is hidden only where the profile's walls still descend into the patch.
+// What no skew explains: a lens covered whole (one view with no texture, the other textured) stays a
+// covered lens on a skewed pair, with its bit and share; a featureless scene (no texture in either view)
+// is not called unsynchronised either, since there was nothing to correlate.
+TEST(FrameChecks, ACoveredLensOnASkewedPairIsStillACoveredLens) {
+  Strips covered(120, 25);
+  covered.right.setTo(40);
+  covered.disparity.setTo(std::numeric_limits<float>::quiet_NaN());
+  const RutMeasurement m = check(covered, {}, 4'000'000);
+  EXPECT_EQ(m.status, RutStatus::LensObstructed) << to_string(m.status);
+  EXPECT_TRUE(m.conditions & kConditionRightObstructed) << int(m.conditions);
+  EXPECT_FALSE(m.conditions & kConditionLeftObstructed) << int(m.conditions);
+  EXPECT_EQ(m.obstructed_right, 1.0);
+  Strips left_covered(120, 25);
+  left_covered.left.setTo(40);
+  left_covered.disparity.setTo(std::numeric_limits<float>::quiet_NaN());
+  const RutMeasurement l = check(left_covered, {}, -4'000'000);
+  EXPECT_EQ(l.status, RutStatus::LensObstructed) << to_string(l.status);
+  EXPECT_TRUE(l.conditions & kConditionLeftObstructed) << int(l.conditions);
+
+  Strips blank(120, 25);
+  blank.left.setTo(120);
+  blank.right.setTo(120);
+  blank.disparity.setTo(std::numeric_limits<float>::quiet_NaN());
+  EXPECT_NE(check(blank, {}, 4'000'000).status, RutStatus::Unsynchronised);
+}
+
 TEST(FrameChecks, FlatUnmatchedPatchInTheRutHidesTheBottomWhereTheWallsDescend) {
   Strips s(120, 25);
   const int u0 = 264, u1 = 376;  // left columns of the patch; the right view sees them kDisparity px left
