@@ -13,6 +13,7 @@
 #include <fmt/format.h>
 #include <gtest/gtest.h>
 
+#include "core/input_error.hpp"
 #include "recording/segment_csv_sink.hpp"
 #include "test_support.hpp"
 #include "trafficability/odometer.hpp"
@@ -147,6 +148,82 @@ TEST(SegmentTracker, EachSegmentIsLocatedAtItsMiddle) {
     ++located;
   }
   EXPECT_EQ(located, 6);
+}
+
+// The segment CSV read back (`rutd map` reads it): every field as written, to the file's decimals; a
+// segment without a fix has none; bad rows are refused naming the file, the line and the column.
+TEST(SegmentCsv, ReadsBackWhatTheSinkWroteAndNamesTheBadField) {
+  const test::TempDir tmp;
+  const std::string path = (tmp.path() / "segments.csv").string();
+  Segment located;
+  located.index = 7;
+  located.start_m = 7;
+  located.end_m = 8;
+  located.t_start_ns = 1'000'000'123;
+  located.t_end_ns = 1'400'000'456;
+  located.frames = 12;
+  located.refused = 2;
+  located.mean_depth_mm = 41.234;
+  located.max_depth_mm = 44.5;
+  located.p95_depth_mm = 44.1;
+  located.depth_uncertainty_mm = 0.31;
+  located.worst_status = RutStatus::Uncertain;
+  located.advisory = Advisory::Caution;
+  located.soil_strength = 512.34;
+  located.position.mode = GeoFix::Mode::Fix3d;
+  located.position.latitude_deg = 61.123456789;
+  located.position.longitude_deg = -24.5;
+  located.position.horizontal_error_m = 1.25;
+  located.position.heading_deg = 359.9;
+  Segment bare;  // no measurement, no fix
+  bare.index = 8;
+  bare.start_m = 8;
+  bare.end_m = 9;
+  {
+    SegmentCsvSink sink(path, "test");
+    sink.publish_segment(located);
+    sink.publish_segment(bare);
+  }
+  const std::vector<Segment> back = read_segment_csv(path);
+  ASSERT_EQ(back.size(), 2u);
+  const Segment& a = back[0];
+  EXPECT_EQ(a.index, 7u);
+  EXPECT_EQ(a.t_start_ns, located.t_start_ns);
+  EXPECT_EQ(a.t_end_ns, located.t_end_ns);
+  EXPECT_EQ(a.frames, 12u);
+  EXPECT_EQ(a.refused, 2u);
+  EXPECT_NEAR(a.mean_depth_mm, 41.23, 1e-9);
+  EXPECT_NEAR(a.soil_strength, 512.3, 1e-9);
+  EXPECT_EQ(a.worst_status, RutStatus::Uncertain);
+  EXPECT_EQ(a.advisory, Advisory::Caution);
+  EXPECT_TRUE(a.position.valid());
+  EXPECT_EQ(a.position.latitude_deg, 61.123456789);
+  EXPECT_EQ(a.position.longitude_deg, -24.5);
+  EXPECT_EQ(a.position.heading_deg, 359.9);
+  const Segment& b = back[1];
+  EXPECT_FALSE(b.position.valid());
+  EXPECT_TRUE(std::isnan(b.mean_depth_mm));
+  EXPECT_EQ(b.worst_status, RutStatus::NoMeasurement);
+  EXPECT_EQ(b.advisory, Advisory::Unknown);
+
+  const std::string text = test::read_text(path);
+  auto refused = [&](const std::string& from, const std::string& to) {
+    std::string bad = text;
+    bad.replace(bad.find(from), from.size(), to);
+    std::ofstream(path) << bad;
+    try {
+      read_segment_csv(path);
+    } catch (const InputError& e) {
+      return std::string(e.what());
+    }
+    return std::string("accepted");
+  };
+  EXPECT_EQ(refused(",CAUTION,", ",MAYBE,"), path + ": line 2, advisory: unknown advisory 'MAYBE'");
+  EXPECT_EQ(refused(",UNCERTAIN,", ",FINE,"), path + ": line 2, worst_status: unknown status 'FINE'");
+  EXPECT_EQ(refused(",41.23,", ",4x,"), path + ": line 2, mean_depth_mm: not a number: '4x'");
+  EXPECT_EQ(refused("8,8.000,9.000", "8,8.000"), path + ": line 3, row: 20 fields, expected 21");
+  EXPECT_EQ(refused("index,", "nothing,"),
+            path + ": line 1: not a segment CSV header; expected " + std::string(kSegmentCsvHeader));
 }
 
 TEST(SegmentTracker, AdvisoryRisesAtOnceFallsAfterTheHysteresisAndIsUnknownWhenUntrusted) {
