@@ -41,6 +41,7 @@
 #include "recording/measurement_csv_sink.hpp"
 #include "recording/segment_csv_sink.hpp"
 #include "runtime/realtime_pipeline.hpp"
+#include "uplink/uplink_sink.hpp"
 
 namespace rutd {
 namespace {
@@ -198,6 +199,19 @@ int run_daemon(const RunOptions& o, const RunInjection& injection) {
   }
   SpeedSamplePull pull;
   if (speed) pull = [r = speed.get()](std::int64_t up_to, SpeedSample& out) { return r->next(up_to, out); };
+  // The fleet uplink: a thread and a queue of its own; a broken link never slows the measurement.
+  std::unique_ptr<Uplink> uplink;
+  std::unique_ptr<UplinkSink> uplink_sink;
+  if (c.uplink.enabled) {
+    const SoftwareVersion& v = software_version();
+    try {
+      uplink = std::make_unique<Uplink>(c.uplink, fmt::format("{}.{}.{}-{}", v.major, v.minor, v.patch, v.revision));
+    } catch (const std::exception& e) {
+      throw InputError(c.file, "uplink", e.what());
+    }
+    uplink_sink = std::make_unique<UplinkSink>(*uplink);
+    sinks.push_back(uplink_sink.get());
+  }
   SinkFanout fanout(sinks);
   // A frame reaches publishing at most max_frame_age after its capture (older ones are refused as stale);
   // with no age limit, 1 s is as late as it matters. The margin covers the publish stage's own time.
@@ -219,16 +233,21 @@ int run_daemon(const RunOptions& o, const RunInjection& injection) {
   install_stop_handlers();
   ServiceNotifier systemd;
   PipelineConfig pipeline_settings = pipeline_config(c);
-  if (gps) {
-    // The positions' state with each summary (publish thread, which also owns the join's counts).
-    pipeline_settings.on_log = [g = gps.get(), j = &*positions](const PipelineStats& s) {
+  if (gps || uplink) {
+    // The positions' and the uplink's state with each summary (publish thread, which also owns the join's
+    // counts).
+    pipeline_settings.on_log = [g = gps.get(), j = positions ? &*positions : nullptr,
+                                u = uplink.get()](const PipelineStats& s) {
       spdlog::info("{}", describe(s));
-      const GpsStats gs = g->stats();
-      spdlog::info(
-          "gps: gpsd {}, {} pairs with a position, {} without; {} fixes, {} without a fix, {} malformed, {} "
-          "connections lost, {} time jumps",
-          gs.connected ? "connected" : "not connected", j->stats().with_position, j->stats().without_position, gs.fixes,
-          gs.no_fix_reports, gs.malformed, gs.disconnects, gs.time_jumps);
+      if (g) {
+        const GpsStats gs = g->stats();
+        spdlog::info(
+            "gps: gpsd {}, {} pairs with a position, {} without; {} fixes, {} without a fix, {} malformed, {} "
+            "connections lost, {} time jumps",
+            gs.connected ? "connected" : "not connected", j->stats().with_position, j->stats().without_position,
+            gs.fixes, gs.no_fix_reports, gs.malformed, gs.disconnects, gs.time_jumps);
+      }
+      if (u) spdlog::info("uplink: {}", describe(u->health()));
     };
   }
   RealtimePipeline pipeline(*source, stages, published, pipeline_settings);
@@ -258,6 +277,10 @@ int run_daemon(const RunOptions& o, const RunInjection& injection) {
   }
   systemd.stopping();
   pipeline.stop();
+  if (uplink) {
+    uplink->stop();  // sends what the broker can take within a second, then "offline"
+    spdlog::info("uplink {}:{}: {}", c.uplink.host, c.uplink.port, describe(uplink->health()));
+  }
   const PipelineStats s = pipeline.stats();
   spdlog::info("stopped: {}", describe(s));
   if (speed) {

@@ -537,6 +537,48 @@ void read_gps(Section s, GpsConfig& g) {
   s.finish();
 }
 
+// The `uplink` section (UplinkConfig); check_uplink_config's verdict names the key.
+void read_uplink(Section s, UplinkConfig& u) {
+  double max_mb = static_cast<double>(u.queue.max_bytes) / (1 << 20);
+  double max_messages = static_cast<double>(u.queue.max_messages);
+  std::string sync = u.queue.sync == OutboxSync::Full ? "full" : "normal";
+  s.get<bool>("enabled", u.enabled)
+      .get<std::string>("host", u.host)
+      .get<int>("port", u.port)
+      .get<std::string>("vehicle", u.vehicle)
+      .get<std::string>("topic_prefix", u.topic_prefix)
+      .get<int>("keepalive_s", u.keepalive_s)
+      .get<std::string>("ca_file", u.ca_file)
+      .get<std::string>("cert_file", u.cert_file)
+      .get<std::string>("key_file", u.key_file)
+      .get<std::string>("credentials_file", u.credentials_file)
+      .get<int>("health_period_s", u.health_period_s)
+      .get<int>("retry_min_ms", u.retry_min_ms)
+      .get<int>("retry_max_ms", u.retry_max_ms)
+      .get<int>("inflight", u.inflight);
+  Section q = s.child("queue");
+  q.get<std::string>("path", u.queue.path)
+      .get<double>("max_mb", max_mb, in_range(0.01, 1e6))
+      .get<double>("max_messages", max_messages, in_range(1.0, 1e9))
+      .parse("sync", [&](const std::string& v) {
+        if (v != "full" && v != "normal") return "expected full or normal, got '" + v + "'";
+        sync = v;
+        return std::string();
+      });
+  q.finish();
+  u.queue.max_bytes = static_cast<std::uint64_t>(max_mb * (1 << 20));
+  u.queue.max_messages = static_cast<std::uint64_t>(max_messages);
+  u.queue.sync = sync == "full" ? OutboxSync::Full : OutboxSync::Normal;
+  if (const std::string problem = check_uplink_config(u); !problem.empty()) {
+    const std::string key = problem.substr(0, problem.find(':'));
+    const std::string first = key.substr(0, key.find('.'));
+    if (key.find('.') != std::string::npos)
+      q.fail(key.substr(key.find('.') + 1).c_str(), problem.substr(key.size() + 2));
+    s.fail(first.c_str(), problem.substr(key.size() + 2));
+  }
+  s.finish();
+}
+
 }  // namespace
 
 RutdConfig parse_config(const std::string& yaml_text, const std::string& file) {
@@ -593,6 +635,7 @@ RutdConfig parse_config(const std::string& yaml_text, const std::string& file) {
   read_plots(sinks.child("plots"), c.sinks);
 
   read_gps(top.child("gps"), c.gps);
+  read_uplink(top.child("uplink"), c.uplink);
   if (c.sinks.csv_positions && !c.gps.enabled) sinks.fail("csv_positions", "needs positions: gps.enabled: true");
   sinks.finish();
 

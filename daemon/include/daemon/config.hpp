@@ -17,6 +17,7 @@
 #include "synthetic/synthetic_renderer.hpp"
 #include "trafficability/odometer.hpp"
 #include "trafficability/segment_tracker.hpp"
+#include "uplink/uplink_config.hpp"
 
 namespace rutd {
 
@@ -88,6 +89,8 @@ struct RutdConfig {
   TrafficabilityConfig trafficability;
   // The `gps` section: positions from gpsd joined to every published pair (off by default).
   GpsConfig gps;
+  // The `uplink` section: segments and health to an MQTT broker, store and forward (off by default).
+  UplinkConfig uplink;
   LoggingConfig logging;
 };
 
