@@ -35,6 +35,7 @@
 #include "daemon/stop_signal.hpp"
 #include "daemon/supervisor.hpp"
 #include "daemon/trafficability_sink.hpp"
+#include "daemon/uplink_state_sink.hpp"
 #include "gps/gpsd_source.hpp"
 #include "recording/calibration_file.hpp"
 #include "recording/frame_recorder.hpp"
@@ -153,6 +154,16 @@ int run_daemon(const RunOptions& o, const RunInjection& injection) {
       return (r != nullptr && r->failed()) || csv_failed;
     };
   }
+  // The fleet uplink: a thread and a queue of its own; a broken link never slows the measurement.
+  std::unique_ptr<Uplink> uplink;
+  if (c.uplink.enabled) {
+    const SoftwareVersion& v = software_version();
+    try {
+      uplink = std::make_unique<Uplink>(c.uplink, fmt::format("{}.{}.{}-{}", v.major, v.minor, v.patch, v.revision));
+    } catch (const std::exception& e) {
+      throw InputError(c.file, "uplink", e.what());
+    }
+  }
   CanSink can(c.can, bus.get(), log.get(), candump_stream, std::move(recording_failed), CandumpTime::WallClock,
               software_version());
   // The CAN status frame says NO_MEASUREMENT once nothing has been published for as long as it takes to
@@ -161,7 +172,17 @@ int run_daemon(const RunOptions& o, const RunInjection& injection) {
   if (!c.trafficability.socketcan.empty() || c.gps.enabled) can.enable_motion();
   NoOutputStatusSink can_status(can, c.pipeline.no_frame_timeout);
   LatestMeasurementSink latest;
-  std::vector<MeasurementSink*> sinks{&can_status, &latest};
+  // With an uplink, its state goes into each status on the way to CAN (RutUplinkStatus); its sink sends
+  // the segments, the seconds without speed and the health.
+  std::optional<UplinkStateSink> uplink_state;
+  std::optional<UplinkSink> uplink_sink;
+  if (uplink) {
+    uplink_state.emplace(can_status, *uplink);
+    uplink_sink.emplace(*uplink);
+  }
+  std::vector<MeasurementSink*> sinks{uplink_state ? static_cast<MeasurementSink*>(&*uplink_state) : &can_status,
+                                      &latest};
+  if (uplink_sink) sinks.push_back(&*uplink_sink);
   if (csv) sinks.push_back(csv.get());
   std::unique_ptr<PlotSink> plots;
   if (c.sinks.plots_enabled) {
@@ -199,19 +220,6 @@ int run_daemon(const RunOptions& o, const RunInjection& injection) {
   }
   SpeedSamplePull pull;
   if (speed) pull = [r = speed.get()](std::int64_t up_to, SpeedSample& out) { return r->next(up_to, out); };
-  // The fleet uplink: a thread and a queue of its own; a broken link never slows the measurement.
-  std::unique_ptr<Uplink> uplink;
-  std::unique_ptr<UplinkSink> uplink_sink;
-  if (c.uplink.enabled) {
-    const SoftwareVersion& v = software_version();
-    try {
-      uplink = std::make_unique<Uplink>(c.uplink, fmt::format("{}.{}.{}-{}", v.major, v.minor, v.patch, v.revision));
-    } catch (const std::exception& e) {
-      throw InputError(c.file, "uplink", e.what());
-    }
-    uplink_sink = std::make_unique<UplinkSink>(*uplink);
-    sinks.push_back(uplink_sink.get());
-  }
   SinkFanout fanout(sinks);
   // A frame reaches publishing at most max_frame_age after its capture (older ones are refused as stale);
   // with no age limit, 1 s is as late as it matters. The margin covers the publish stage's own time.

@@ -51,6 +51,10 @@ constexpr Signal kMotionSpeed{16, 16, 0.01, -320.0, -320.0, 335.34};  // km/h
 constexpr Signal kMotionDistance{32, 24, 0.01, 0.0, 0.0, 167772.14};  // m
 constexpr int kMotionFixStartBit = 56;
 constexpr int kMotionReservedStartBit = 60;
+constexpr int kUplinkQueuedStartBit = 16;
+constexpr int kUplinkQueuedBits = 24;
+constexpr Signal kUplinkOldest{40, 16, 1.0, 0.0, 0.0, 65534.0};  // s
+constexpr int kUplinkFlagsStartBit = 56;
 constexpr int kFlagsStartBit = 16;
 constexpr int kDroppedStartBit = 40;
 constexpr int kDroppedBits = 24;
@@ -118,6 +122,7 @@ std::string check_can_id_config(const CanIdConfig& ids) {
                                                         {"segment_pgn", ids.segment_pgn},
                                                         {"segment_stats_pgn", ids.segment_stats_pgn},
                                                         {"motion_pgn", ids.motion_pgn},
+                                                        {"uplink_pgn", ids.uplink_pgn},
                                                         {"version_pgn", ids.version_pgn}};
   for (const auto& [name, pgn] : pgns) {
     if (pgn > 0x3FFFF) return std::string(name) + ": PGN must be 0..0x3FFFF";
@@ -130,6 +135,7 @@ std::string check_can_id_config(const CanIdConfig& ids) {
                                                          {"segment_id_11bit", ids.segment_id_11bit},
                                                          {"segment_stats_id_11bit", ids.segment_stats_id_11bit},
                                                          {"motion_id_11bit", ids.motion_id_11bit},
+                                                         {"uplink_id_11bit", ids.uplink_id_11bit},
                                                          {"version_id_11bit", ids.version_id_11bit}};
   for (const auto& [name, id] : ids11) {
     if (id > 0x7FF) return std::string(name) + ": must be 0..0x7FF";
@@ -194,6 +200,19 @@ CanFrame CanEncoder::encode_motion(const VehicleMotion& motion, const GeoFix& po
   put_bits(frame.data, kMotionReservedStartBit, 4, all_ones(4));
   const auto state = static_cast<std::uint8_t>(motion.state);
   protect(frame, kMotionDataId, last_measurement_counter_, state <= 4 ? state : kUnknownStatus);
+  return frame;
+}
+
+CanFrame CanEncoder::encode_uplink(const UplinkState& u) noexcept {
+  CanFrame frame = make_frame(ids_.uplink_pgn, ids_.uplink_id_11bit);
+  put_bits(frame.data, kUplinkQueuedStartBit, kUplinkQueuedBits,
+           std::min<std::uint64_t>(u.queued, all_ones(kUplinkQueuedBits) - 1));
+  put(frame.data, kUplinkOldest, u.oldest_unsent_s, true);
+  const bool flags[] = {u.send_errors, u.queue_error, u.dropped};
+  for (int i = 0; i < 3; ++i) put_bits(frame.data, kUplinkFlagsStartBit + i, 1, flags[i] ? 1U : 0U);
+  put_bits(frame.data, kUplinkFlagsStartBit + 3, 5, all_ones(5));
+  protect(frame, kUplinkDataId, uplink_counter_, u.link_up ? 1 : 0);
+  uplink_counter_ = next_counter(uplink_counter_);
   return frame;
 }
 

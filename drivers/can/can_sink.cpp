@@ -61,6 +61,7 @@ void CanSink::publish_status(const SensorHealth& health, std::int64_t t_ns) {
   // itself), and for each status period in which a measurement CSV row was lost.
   if (recording_failed_ && recording_failed_()) h.recording_error = true;
   emit(encoder_.encode_status(h), t_ns);
+  if (h.uplink.enabled) emit(encoder_.encode_uplink(h.uplink), t_ns);
   if (version_ && (!version_sent_ns_ || t_ns - *version_sent_ns_ >= kVersionPeriodNs)) {
     emit(encoder_.encode_version(*version_), t_ns);
     version_sent_ns_ = t_ns;

@@ -129,6 +129,7 @@ constexpr Range kSegmentFrames{0, 4094, 1};
 constexpr Range kSoilStrength{0, 6553.4, 0.1};
 constexpr Range kSpeedKmh{-320, 335.34, 0.01};
 constexpr Range kTrackDistance{0, 167772.14, 0.01};
+constexpr Range kOldestUnsent{0, 65534, 1};
 
 struct Expect {
   bool na = false;
@@ -252,6 +253,31 @@ void expect_motion(Expectations& e, int index, int counter, const MotionCase& c)
   e[{index, "TrackDistance"}] = physical(c.motion.distance_m, kTrackDistance);
   const int fix = static_cast<int>(c.position.mode);
   e[{index, "PositionFix"}] = exact(fix == 0 ? 15 : fix, fixes[fix]);
+}
+
+void expect_uplink(Expectations& e, int index, int counter, const UplinkState& u) {
+  e[{index, "RutU_Counter"}] = exact(counter);
+  e[{index, "UplinkLink"}] = exact(u.link_up ? 1 : 0, u.link_up ? "UP" : "DOWN");
+  e[{index, "UplinkQueued"}] = exact(static_cast<double>(std::min<std::uint64_t>(u.queued, 16777214)));
+  e[{index, "UplinkOldestUnsent"}] = physical(u.oldest_unsent_s, kOldestUnsent);
+  e[{index, "UplinkSendErrors"}] = exact(u.send_errors);
+  e[{index, "UplinkQueueError"}] = exact(u.queue_error);
+  e[{index, "UplinkDropped"}] = exact(u.dropped);
+}
+
+UplinkState uplink_case(std::mt19937& rng, int k) {
+  std::bernoulli_distribution coin(0.5);
+  UplinkState u;
+  u.enabled = true;
+  u.link_up = coin(rng);
+  const std::uint64_t queued[] = {0, 16777214, 16777215, 5'000'000'000ULL};
+  u.queued = k < 4 ? queued[k] : std::uniform_int_distribution<std::uint64_t>(0, 100000)(rng);
+  const double oldest[] = {0.0, 65534.0, 1e6, -3.0, kNaN};
+  u.oldest_unsent_s = k < 5 ? oldest[k] : std::uniform_real_distribution<double>(0, 3600)(rng);
+  u.send_errors = coin(rng);
+  u.queue_error = coin(rng);
+  u.dropped = coin(rng);
+  return u;
 }
 
 // The ends of every field, each state and fix, and random values spilling past both ends.
@@ -422,6 +448,13 @@ std::pair<Expectations, std::vector<CanFrame>> write_log(const fs::path& log_pat
       frames.push_back(encoder.encode_status(h));
       times.push_back(t + 1'000'000);
       EXPECT_TRUE(writer.write(frames.back(), times.back()));
+      if (status_count % 2 == 0) {  // a daemon with an uplink
+        const UplinkState u = uplink_case(rng, status_count / 2);
+        expect_uplink(expected, static_cast<int>(frames.size()), (status_count / 2) % 15, u);
+        frames.push_back(encoder.encode_uplink(u));
+        times.push_back(t + 1'050'000);
+        EXPECT_TRUE(writer.write(frames.back(), times.back()));
+      }
       if (status_count % 3 == 0) {
         const int version_count = status_count / 3;
         const SoftwareVersion v = version_case(rng, version_count);
@@ -550,6 +583,18 @@ TEST(CanEncoder, MotionFrameIsTheWorkedExample) {
   const CanFrame eleven = standard.encode_motion(motion, fix);
   EXPECT_EQ(eleven.id, 0x356U);
   EXPECT_EQ(eleven.data, encoder.encode_motion(motion, fix).data);
+}
+
+TEST(CanEncoder, UplinkFrameIsTheWorkedExample) {
+  CanEncoder encoder;
+  UplinkState u;
+  u.enabled = true;
+  u.queued = 1234;
+  u.oldest_unsent_s = 75;
+  u.send_errors = true;
+  std::ostringstream os;
+  CandumpLogWriter(os, "can0").write(encoder.encode_uplink(u), 1'000'000);
+  EXPECT_EQ(os.str(), "(0000000000.001000) can0 18FF57A0#9D00D204004B00F9\n");
 }
 
 TEST(CanEncoder, VersionFrameIsTheWorkedExample) {

@@ -16,6 +16,7 @@
 
 #include <gtest/gtest.h>
 
+#include "decoded_candump.hpp"
 #include "process_support.hpp"
 #include "skip_policy.hpp"
 #include "test_support.hpp"
@@ -138,10 +139,11 @@ TEST_F(UplinkBroker, SegmentsAndHealthArriveValidInOrderAndOnce) {
                       test::quoted(dir() / "speed.log") + " 50 6 0:7.2,6:7.2 2>/dev/null"),
             0);
   const fs::path log = dir() / "drive.log";
-  ASSERT_EQ(run_shell("exec " + test::quoted(RUTD_FAULTS_BINARY) + " --speed-from " +
-                      test::quoted(dir() / "speed.log") + " run --config " + test::quoted(config("drive", "truck-7")) +
-                      " --candump '' --speed-socketcan vcan0 --frames 120 2>" + test::quoted(log)),
-            0)
+  ASSERT_EQ(
+      run_shell("exec " + test::quoted(RUTD_FAULTS_BINARY) + " --speed-from " + test::quoted(dir() / "speed.log") +
+                " run --config " + test::quoted(config("drive", "truck-7")) + " --candump " +
+                test::quoted(dir() / "can.log") + " --speed-socketcan vcan0 --frames 120 2>" + test::quoted(log)),
+      0)
       << read_text(log);
   const std::string report = received();
   EXPECT_EQ(test::json_number(report, "invalid"), 0);
@@ -153,6 +155,17 @@ TEST_F(UplinkBroker, SegmentsAndHealthArriveValidInOrderAndOnce) {
   EXPECT_NE(report.find(R"("status":["online","offline"])"), std::string::npos);
   const std::string run_log = read_text(log);
   EXPECT_NE(run_log.find("link down, 0 queued"), std::string::npos) << run_log;
+  // RutUplinkStatus on CAN (canmatrix): the link up once connected, nothing waiting long.
+  bool ok = false;
+  const auto uplink = test::frames_of(test::decode_candump(dir() / "can.log", ok), "RutUplinkStatus");
+  EXPECT_TRUE(ok);
+  ASSERT_GE(uplink.size(), 30u);
+  int up = 0;
+  for (const auto& f : uplink) {
+    up += f.named.at("UplinkLink") == "UP";
+    EXPECT_LE(f.phys.at("UplinkOldestUnsent"), 2);
+  }
+  EXPECT_GE(up, static_cast<int>(uplink.size()) - 3);
 }
 
 // The broker away for 60 s while the vehicle measures: the messages made meanwhile are queued on disk
@@ -248,8 +261,11 @@ TEST_F(UplinkBroker, DiskFullUnderTheQueueIsFlaggedAndMeasuringGoesOn) {
   stop_broker();  // nothing leaves, so the queue only grows
   const fs::path cfg = config("full", "truck-7");
   const fs::path log = dir() / "full.log";
-  ASSERT_EQ(run_shell("prlimit --fsize=40000 " + test::quoted(RUTD_BINARY) + " run --config " + test::quoted(cfg) +
-                      " --candump '' --frames 240 2>" + test::quoted(log)),
+  // The limit is rutd's alone: its candump log goes through a pipe to a writer without it.
+  ASSERT_EQ(run_shell("bash -c 'set -o pipefail; prlimit --fsize=40000 \"$0\" run --config \"$1\" --candump - "
+                      "--frames 240 2>\"$2\" | cat >\"$3\"' " +
+                      test::quoted(RUTD_BINARY) + " " + test::quoted(cfg) + " " + test::quoted(log) + " " +
+                      test::quoted(dir() / "can.log")),
             0)
       << read_text(log);
   const std::string text = read_text(log);
@@ -258,6 +274,22 @@ TEST_F(UplinkBroker, DiskFullUnderTheQueueIsFlaggedAndMeasuringGoesOn) {
   std::smatch m;
   ASSERT_TRUE(std::regex_search(text, m, std::regex(R"(stopped: acquired \d+ \([^)]*\) published (\d+))"))) << text;
   EXPECT_GE(std::stoi(m[1]), 240) << text;
+  // On CAN, decoded by canmatrix: RutUplinkStatus after every status, link down, the queue growing, and
+  // the queue write error flagged.
+  bool ok = false;
+  const auto frames = test::decode_candump(dir() / "can.log", ok);
+  EXPECT_TRUE(ok);
+  const auto uplink = test::frames_of(frames, "RutUplinkStatus");
+  EXPECT_EQ(uplink.size(), test::frames_of(frames, "RutSensorStatus").size());
+  ASSERT_GE(uplink.size(), 50u);
+  int queue_errors = 0;
+  for (const auto& f : uplink) {
+    EXPECT_EQ(f.named.at("UplinkLink"), "DOWN");
+    queue_errors += f.phys.at("UplinkQueueError") == 1;
+  }
+  EXPECT_GE(queue_errors, 1);
+  EXPECT_GT(uplink.back().phys.at("UplinkQueued"), 0);
+  EXPECT_GT(uplink.back().phys.at("UplinkOldestUnsent"), 1);
 }
 
 // Wrong credentials, a CA that did not sign the broker's certificate, a server that accepts and drops:

@@ -9,6 +9,18 @@
 
 namespace rutd {
 
+// The fleet uplink's state as the CAN status tells it (RutUplinkStatus; drivers/uplink fills the figures,
+// the daemon copies them in at every status). The flags are for the last status period.
+struct UplinkState {
+  bool enabled = false;          // false: no uplink configured, nothing to tell
+  bool link_up = false;          // connected to the broker and accepted
+  std::uint64_t queued = 0;      // messages waiting for the broker's acknowledgement
+  double oldest_unsent_s = 0.0;  // age of the oldest of them
+  bool send_errors = false;      // a send or connection attempt failed
+  bool queue_error = false;      // a write to the queue failed (disk full)
+  bool dropped = false;          // messages were dropped: beyond the queue's bound, or not queued
+};
+
 struct SensorHealth {
   bool no_camera = false;
   bool stale_frames = false;
@@ -21,6 +33,7 @@ struct SensorHealth {
   double frame_rate_hz = 0.0;
   std::uint32_t dropped_frames = 0;
   RutStatus last_status = RutStatus::NoMeasurement;
+  UplinkState uplink;
 };
 
 }  // namespace rutd

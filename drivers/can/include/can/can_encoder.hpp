@@ -12,9 +12,10 @@
 //   RutSegment       PGN 0xFF54  -> 0x18FF54A0
 //   RutSegmentStats  PGN 0xFF55  -> 0x18FF55A0
 //   RutMotion        PGN 0xFF56  -> 0x18FF56A0
+//   RutUplinkStatus  PGN 0xFF57  -> 0x18FF57A0
 //   RutSoftwareVersion PGN 0xFF5F -> 0x18FF5FA0
 // or, with `extended = false`, the 11-bit identifiers of CanIdConfig (0x350, 0x351, 0x352, 0x353, 0x354,
-// 0x355, 0x356, 0x35F).
+// 0x355, 0x356, 0x357, 0x35F).
 //
 // Payload, every frame 8 bytes, signals little-endian (Intel), unsigned, physical = raw * factor +
 // offset. Protection in the AUTOSAR E2E profile 1 layout:
@@ -25,6 +26,7 @@
 //                   and the version frame have their own counters.
 //   Data IDs        RutMeasurement1 0xFF50, RutMeasurement2 0xFF51, RutSensorStatus 0xFF52,
 //                   RutConditions 0xFF53, RutSegment 0xFF54, RutSegmentStats 0xFF55, RutMotion 0xFF56,
+//                   RutUplinkStatus 0xFF57,
 //                   RutSoftwareVersion 0xFF5F. They are
 //                   fixed per message (not derived from the configured identifiers) so a receiver's
 //                   check does not depend on the addressing. Unlike a strict profile 1 CRC (which
@@ -67,6 +69,19 @@
 //                    0: speed (7.2 + 320) / 0.01 = 32720 = 0x7FD0, distance 1234 = 0x0004D2; bytes 1..7 =
 //                    00 D0 7F D2 04 00 F3; CRC over 56 FF 00 D0 7F D2 04 00 F3 = 0x9A. In candump:
 //                    18FF56A0#9A00D07FD20400F3.
+//   RutUplinkStatus  the fleet uplink (SensorHealth::uplink), sent right after every RutSensorStatus when an
+//                    uplink is configured; own counter
+//                    byte 1 bits 4-7  link: 0 down, 1 up
+//                    bits 16..39   queued messages (waiting for the broker's acknowledgement) 0..16777214
+//                    bits 40..55   oldest unsent message's age  1 s  0..65534 s
+//                    bit 56        send or connection errors in the last status period
+//                    bit 57        queue write errors (disk full) in the last status period
+//                    bit 58        messages dropped (beyond the queue's bound, or not queued) in it
+//                    bits 59..63   reserved, all ones
+//                    Worked example: link down, 1234 queued, the oldest 75 s old, send errors, counter 0:
+//                    byte 1 0x00; bytes 2..4 D2 04 00; bytes 5..6 4B 00; byte 7 0xF9 (bit 56 set, 57 and 58
+//                    clear, 59..63 ones); CRC over 57 FF 00 D2 04 00 4B 00 F9 = 0x9D. In candump:
+//                    18FF57A0#9D00D204004B00F9.
 //   RutSensorStatus  byte 1 bits 4-7  status of the latest measurement (SensorHealth::last_status)
 //                    bits 16..23   health flags, one bit each in SensorHealth's order: no camera,
 //                                  stale frames, calibration invalid, low texture, frame drops,
@@ -128,6 +143,7 @@ struct CanIdConfig {
   std::uint32_t segment_pgn = 0xFF54;
   std::uint32_t segment_stats_pgn = 0xFF55;
   std::uint32_t motion_pgn = 0xFF56;
+  std::uint32_t uplink_pgn = 0xFF57;
   std::uint32_t version_pgn = 0xFF5F;
   std::uint32_t measurement1_id_11bit = 0x350;  // 0..0x7FF
   std::uint32_t measurement2_id_11bit = 0x351;
@@ -136,6 +152,7 @@ struct CanIdConfig {
   std::uint32_t segment_id_11bit = 0x354;
   std::uint32_t segment_stats_id_11bit = 0x355;
   std::uint32_t motion_id_11bit = 0x356;
+  std::uint32_t uplink_id_11bit = 0x357;
   std::uint32_t version_id_11bit = 0x35F;
 };
 
@@ -155,6 +172,7 @@ inline constexpr std::uint16_t kConditionsDataId = 0xFF53;
 inline constexpr std::uint16_t kSegmentDataId = 0xFF54;
 inline constexpr std::uint16_t kSegmentStatsDataId = 0xFF55;
 inline constexpr std::uint16_t kMotionDataId = 0xFF56;
+inline constexpr std::uint16_t kUplinkDataId = 0xFF57;
 inline constexpr std::uint16_t kVersionDataId = 0xFF5F;
 
 class CanEncoder {  // not thread-safe: one publisher thread owns it. Keeps the rolling counters.
@@ -173,6 +191,9 @@ class CanEncoder {  // not thread-safe: one publisher thread owns it. Keeps the 
   // The RutMotion frame of the measurement last passed to encode_measurement (its counter value): the
   // vehicle's motion and the position fix in force at its capture time.
   CanFrame encode_motion(const VehicleMotion& motion, const GeoFix& position) const noexcept;
+
+  // The RutUplinkStatus frame. Advances its own counter.
+  CanFrame encode_uplink(const UplinkState& u) noexcept;
 
   // The RutSensorStatus frame. Advances the status counter.
   CanFrame encode_status(const SensorHealth& h) noexcept;
@@ -195,6 +216,7 @@ class CanEncoder {  // not thread-safe: one publisher thread owns it. Keeps the 
   std::uint8_t status_counter_ = 0;
   std::uint8_t version_counter_ = 0;
   std::uint8_t segment_counter_ = 0;
+  std::uint8_t uplink_counter_ = 0;
 };
 
 }  // namespace rutd
