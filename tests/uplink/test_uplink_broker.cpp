@@ -45,8 +45,10 @@ class UplinkBroker : public ::testing::Test {
   void SetUp() override {
     if (const std::string m = missing_tools(); !m.empty()) RUTD_SKIP_NEEDS_INSTALLED(m);
     port_ = test::free_loopback_port();
-    ASSERT_EQ(
-        run_shell(test::quoted(kDir + "/make_broker.sh") + " " + test::quoted(dir()) + " " + std::to_string(port_)), 0);
+    cert_port_ = test::free_loopback_port();
+    ASSERT_EQ(run_shell(test::quoted(kDir + "/make_broker.sh") + " " + test::quoted(dir()) + " " +
+                        std::to_string(port_) + " " + std::to_string(cert_port_)),
+              0);
     start_broker();
     subscriber_ = std::make_unique<test::ProcessGroup>(
         std::vector<std::string>{kPython, kDir + "/subscribe.py", "127.0.0.1", std::to_string(port_),
@@ -114,7 +116,7 @@ class UplinkBroker : public ::testing::Test {
   }
 
   test::TempDir tmp_;
-  int port_ = 0;
+  int port_ = 0, cert_port_ = 0;
   int broker_starts_ = 0;
   std::unique_ptr<test::ProcessGroup> broker_, subscriber_;
 };
@@ -334,6 +336,29 @@ TEST_F(UplinkBroker, RefusalsGiveOneClearErrorEachAndAreRetried) {
     ASSERT_TRUE(std::regex_search(log, m, std::regex(R"(stopped: acquired \d+ \([^)]*\) published (\d+))"))) << log;
     EXPECT_GE(std::stoi(m[1]), 150);
   }
+}
+
+// A client certificate instead of a password (the broker's second listener requires one and takes its
+// common name as the user name, so the ACL applies as with passwords).
+TEST_F(UplinkBroker, AClientCertificateAuthenticatesTheVehicle) {
+  const fs::path cfg = dir() / "certificate.yaml";
+  std::string text = read_text(config("certificate", "truck-7"));
+  auto set = [&](const std::string& key, const std::string& value) {
+    const auto from = text.find("  " + key + ": ");
+    text.replace(from, text.find('\n', from) - from, "  " + key + ": " + value);
+  };
+  set("port", std::to_string(cert_port_));
+  set("credentials_file", "\"\"");
+  text.replace(
+      text.find("  health_period_s"), 0,
+      "  cert_file: " + (dir() / "truck-7.crt").string() + "\n  key_file: " + (dir() / "truck-7.key").string() + "\n");
+  std::ofstream(cfg) << text;
+  const std::string log = run(cfg, "--frames 90");
+  EXPECT_EQ(count_lines(log, "warning uplink: "), 0) << log;
+  const std::string report = received();
+  EXPECT_GE(test::json_number(report, "distinct_ids"), 3) << log;
+  EXPECT_EQ(test::json_number(report, "missing"), 0);
+  EXPECT_EQ(test::json_number(report, "invalid"), 0);
 }
 
 // The ACL: truck-8's credentials may publish only under rutd/truck-8/, so a vehicle configured as
