@@ -1,19 +1,14 @@
 #include "can/can_sink.hpp"
 
-#include <chrono>
 #include <ostream>
 #include <utility>
+
+#include "core/monotonic_clock.hpp"
 
 namespace rutd {
 namespace {
 
 constexpr std::int64_t kVersionPeriodNs = 1'000'000'000;
-
-// candump logs carry wall-clock time, as candump itself writes them, so they line up with other logs.
-std::int64_t wall_clock_ns() {
-  return std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::system_clock::now().time_since_epoch())
-      .count();
-}
 
 }  // namespace
 
@@ -29,7 +24,7 @@ CanSink::CanSink(const CanIdConfig& ids, SocketCanBus* bus, CandumpLogWriter* lo
 
 void CanSink::emit(const CanFrame& frame, std::int64_t frame_t_ns) {
   if (bus_ != nullptr && !bus_->send(frame)) return;
-  if (log_ != nullptr) log_->write(frame, log_time_ == CandumpTime::FrameClock ? frame_t_ns : wall_clock_ns());
+  if (log_ != nullptr) log_->write(frame, log_time_ == CandumpTime::FrameClock ? frame_t_ns : unix_now_ns());
 }
 
 void CanSink::publish(const PublishedFrame& frame) {

@@ -12,15 +12,12 @@
 
 #include <spdlog/spdlog.h>
 
+#include "core/monotonic_clock.hpp"
+
 namespace rutd {
 namespace {
 
 using Clock = std::chrono::steady_clock;
-
-std::int64_t unix_now_ns() {
-  return std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::system_clock::now().time_since_epoch())
-      .count();
-}
 
 // Why a connection attempt failed, in words that say what to check.
 std::string failure_text(int rc, const UplinkConfig& c) {

@@ -1,18 +1,14 @@
 #include "uplink/uplink_sink.hpp"
 
 #include <algorithm>
-#include <chrono>
 #include <cmath>
+
+#include "core/monotonic_clock.hpp"
 
 namespace rutd {
 namespace {
 
 constexpr std::int64_t kSecondNs = 1'000'000'000;
-
-std::int64_t system_now_ns() {
-  return std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::system_clock::now().time_since_epoch())
-      .count();
-}
 
 // A status's severity for "worst": the order RutStatus lists them is not one of trust, so refusals (the
 // image conditions) rank above the geometric findings, and OK lowest.
@@ -31,7 +27,7 @@ int severity(RutStatus s) {
 }  // namespace
 
 UplinkSink::UplinkSink(Uplink& uplink, std::function<std::int64_t()> unix_now)
-    : uplink_(uplink), unix_now_(unix_now ? std::move(unix_now) : std::function<std::int64_t()>(system_now_ns)) {}
+    : uplink_(uplink), unix_now_(unix_now ? std::move(unix_now) : std::function<std::int64_t()>(unix_now_ns)) {}
 
 void UplinkSink::flush_second(std::int64_t now_unix_ns) {
   if (second_.frames == 0 || now_unix_ns < second_.start_unix_ns + kSecondNs) return;

@@ -15,4 +15,12 @@ inline std::int64_t monotonic_now_ns() noexcept {
   return static_cast<std::int64_t>(ts.tv_sec) * 1'000'000'000 + ts.tv_nsec;
 }
 
+// The wall clock (CLOCK_REALTIME, UTC, ns since 1970), for what leaves the machine with a date: candump
+// logs as candump writes them, the uplink's messages. Never for intervals: it jumps when set.
+inline std::int64_t unix_now_ns() noexcept {
+  timespec ts{};
+  clock_gettime(CLOCK_REALTIME, &ts);
+  return static_cast<std::int64_t>(ts.tv_sec) * 1'000'000'000 + ts.tv_nsec;
+}
+
 }  // namespace rutd
