@@ -285,10 +285,6 @@ int run_daemon(const RunOptions& o, const RunInjection& injection) {
   }
   systemd.stopping();
   pipeline.stop();
-  if (uplink) {
-    uplink->stop();  // sends what the broker can take within a second, then "offline"
-    spdlog::info("uplink {}:{}: {}", c.uplink.host, c.uplink.port, describe(uplink->health()));
-  }
   const PipelineStats s = pipeline.stats();
   spdlog::info("stopped: {}", describe(s));
   if (speed) {
@@ -304,6 +300,12 @@ int run_daemon(const RunOptions& o, const RunInjection& injection) {
         d.error_value, d.out_of_range, d.implausible, d.direction_unknown, d.wrong_length, d.spoofed, d.burst,
         d.other_id, r.kernel_dropped, r.queue_full);
     spdlog::info("trafficability: {}", traffic.describe());
+  }
+  if (uplink) {
+    // After the last segment closed: it goes into the queue, then up if the broker takes it within a
+    // second; "offline" last.
+    uplink->stop();
+    spdlog::info("uplink {}:{}: {}", c.uplink.host, c.uplink.port, describe(uplink->health()));
   }
   if (segments_csv) {
     spdlog::info("segment CSV {}: {} rows written, {} lost", segments_csv->path(), segments_csv->rows_written(),

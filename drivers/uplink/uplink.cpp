@@ -142,7 +142,13 @@ Uplink::Uplink(UplinkConfig config, std::string software)
   thread_ = std::jthread([this](std::stop_token stop) { run(stop); });
 }
 
-Uplink::~Uplink() { stop(); }
+Uplink::~Uplink() {
+  stop();
+  // Posted after the thread ended (a caller that posts after stop()): lost, counted, and destroyed here
+  // (the ring buffer does not destroy what it still holds).
+  Posted p;
+  while (handoff_.pop(p)) ++not_queued_;
+}
 
 bool Uplink::post(UplinkTopic topic, std::string body, std::int64_t created_unix_ns) {
   if (handoff_.push(Posted{topic, std::move(body), created_unix_ns})) return true;
@@ -295,6 +301,7 @@ void Uplink::run(std::stop_token stop) noexcept {
     }
     publish_health_atomics();
   }
+  store_posted();  // what came in during the last turn stays queued for the next start
   if (l.connected) {
     const std::string offline = uplink_status_json(false, config_.vehicle, software_);
     mosquitto_publish(l.mosq, nullptr, l.status_topic.c_str(), static_cast<int>(offline.size()), offline.data(), 1,

