@@ -48,11 +48,12 @@ const char* to_string(UplinkTopic topic) noexcept {
 // The connection: libmosquitto's handle, what is in flight, the two lanes' cursors and the back-off.
 struct Uplink::Link {
   mosquitto* mosq = nullptr;
-  std::string prefix;        // PREFIX/VEHICLE/
-  std::string status_topic;  // PREFIX/VEHICLE/status
-  bool socket_open = false;  // mosquitto_connect succeeded; CONNACK may still be pending or refused
-  bool connected = false;    // CONNACK accepted
-  bool refused = false;      // CONNACK refused (said by the connect callback)
+  std::string prefix;            // PREFIX/VEHICLE/
+  std::string status_topic;      // PREFIX/VEHICLE/status
+  bool socket_open = false;      // mosquitto_connect succeeded; CONNACK may still be pending or refused
+  bool connected = false;        // CONNACK accepted
+  bool refused = false;          // CONNACK refused (said by the connect callback)
+  bool announce_online = false;  // the retained "online" is due (set by the connect callback)
   std::unordered_map<int, Outbox::Acked> inflight;  // mid -> the queued message
   std::vector<Outbox::Acked> acked;
   std::int64_t backlog_end = 0, backlog_cursor = 0, live_cursor = 0;
@@ -117,8 +118,9 @@ Uplink::Uplink(UplinkConfig config, std::string software)
     k.backlog_end = u->outbox_->last_id();
     k.backlog_cursor = 0;
     k.live_cursor = k.backlog_end;
-    const std::string online = uplink_status_json(true, u->config_.vehicle, u->software_);
-    mosquitto_publish(k.mosq, nullptr, k.status_topic.c_str(), static_cast<int>(online.size()), online.data(), 1, true);
+    // Not from inside the callback: libmosquitto holds its callback lock here, and publishing takes its
+    // packet locks, the reverse of their order in mosquitto_loop (ThreadSanitizer's lock-order report).
+    k.announce_online = true;
   });
   mosquitto_disconnect_callback_set(l.mosq, [](mosquitto*, void* self, int rc) {
     auto* u = static_cast<Uplink*>(self);
@@ -233,6 +235,12 @@ void Uplink::run(std::stop_token stop) noexcept {
         l.backoff_ms = l.backoff_ms == 0 ? config_.retry_min_ms : std::min(2 * l.backoff_ms, config_.retry_max_ms);
         l.next_attempt = now + std::chrono::milliseconds(l.backoff_ms);
       }
+    }
+    if (l.connected && l.announce_online) {
+      l.announce_online = false;
+      const std::string online = uplink_status_json(true, config_.vehicle, software_);
+      mosquitto_publish(l.mosq, nullptr, l.status_topic.c_str(), static_cast<int>(online.size()), online.data(), 1,
+                        true);
     }
     if (l.connected) {
       // Live first, then the backlog, within the in-flight window; each lane in id order.
