@@ -8,24 +8,6 @@
 
 namespace rutd {
 
-// Ok first; NoRut is a finding (no rut), then the statuses whose depth was computed but not trusted, then
-// the ones where the scene could not be measured at all.
-const std::array<std::uint8_t, kRutStatusCount> kStatusSeverity = {
-    0,   // Ok
-    1,   // NoRut
-    6,   // TooFewPoints
-    7,   // NoGround
-    5,   // RutAtEdge
-    12,  // NoMeasurement
-    11,  // LensObstructed
-    8,   // BadExposure
-    10,  // CalibrationDrift
-    4,   // BottomNotSeen
-    3,   // Vegetation
-    2,   // Uncertain
-    9,   // Unsynchronised
-};
-
 namespace {
 
 int severity(Advisory a) noexcept {  // for "the worst of": GO < CAUTION < NO_GO
@@ -135,8 +117,7 @@ std::size_t SegmentTracker::add(std::int64_t t_ns, const RutMeasurement& m, cons
       o.fix_from_middle_m = from_middle;
     }
   }
-  if (kStatusSeverity[static_cast<std::size_t>(m.status)] > kStatusSeverity[static_cast<std::size_t>(o.worst)])
-    o.worst = m.status;
+  if (status_severity(m.status) > status_severity(o.worst)) o.worst = m.status;
   if (m.status == RutStatus::NoRut) ++o.no_rut;
   if (m.status == RutStatus::Ok) {
     ++o.ok;

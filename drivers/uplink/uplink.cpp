@@ -64,6 +64,15 @@ struct Uplink::Link {
   ~Link() {
     if (mosq) mosquitto_destroy(mosq);
   }
+  // The next attempt after a failure: retry_min_ms, doubling up to retry_max_ms.
+  void back_off(Clock::time_point now, const UplinkConfig& c) {
+    backoff_ms = backoff_ms == 0 ? c.retry_min_ms : std::min(2 * backoff_ms, c.retry_max_ms);
+    next_attempt = now + std::chrono::milliseconds(backoff_ms);
+  }
+  // The retained status message (not queued).
+  void publish_status(const std::string& json) {
+    mosquitto_publish(mosq, nullptr, status_topic.c_str(), static_cast<int>(json.size()), json.data(), 1, true);
+  }
   // Logs a problem once (until a different one, or a connection, comes).
   void problem(const std::string& what) {
     if (what == last_problem) return;
@@ -232,15 +241,12 @@ void Uplink::run(std::stop_token stop) noexcept {
         l.problem(rc == MOSQ_ERR_TLS ? failure_text(rc, config_)
                                      : fmt::format("cannot connect to {}:{}: {}", config_.host, config_.port,
                                                    failure_text(rc, config_)));
-        l.backoff_ms = l.backoff_ms == 0 ? config_.retry_min_ms : std::min(2 * l.backoff_ms, config_.retry_max_ms);
-        l.next_attempt = now + std::chrono::milliseconds(l.backoff_ms);
+        l.back_off(now, config_);
       }
     }
     if (l.connected && l.announce_online) {
       l.announce_online = false;
-      const std::string online = uplink_status_json(true, config_.vehicle, software_);
-      mosquitto_publish(l.mosq, nullptr, l.status_topic.c_str(), static_cast<int>(online.size()), online.data(), 1,
-                        true);
+      l.publish_status(uplink_status_json(true, config_.vehicle, software_));
     }
     if (l.connected) {
       // Live first, then the backlog, within the in-flight window; each lane in id order.
@@ -295,8 +301,7 @@ void Uplink::run(std::stop_token stop) noexcept {
         l.socket_open = false;
         l.inflight.clear();
         mosquitto_disconnect(l.mosq);
-        l.backoff_ms = l.backoff_ms == 0 ? config_.retry_min_ms : std::min(2 * l.backoff_ms, config_.retry_max_ms);
-        l.next_attempt = Clock::now() + std::chrono::milliseconds(l.backoff_ms);
+        l.back_off(Clock::now(), config_);
       }
     } else {
       std::this_thread::sleep_for(std::chrono::milliseconds(50));
@@ -311,9 +316,7 @@ void Uplink::run(std::stop_token stop) noexcept {
   }
   store_posted();  // what came in during the last turn stays queued for the next start
   if (l.connected) {
-    const std::string offline = uplink_status_json(false, config_.vehicle, software_);
-    mosquitto_publish(l.mosq, nullptr, l.status_topic.c_str(), static_cast<int>(offline.size()), offline.data(), 1,
-                      true);
+    l.publish_status(uplink_status_json(false, config_.vehicle, software_));
     for (int i = 0; i < 10; ++i) mosquitto_loop(l.mosq, 20, 1);
     mosquitto_disconnect(l.mosq);
     mosquitto_loop(l.mosq, 20, 1);

@@ -10,20 +10,6 @@ namespace {
 
 constexpr std::int64_t kSecondNs = 1'000'000'000;
 
-// A status's severity for "worst": the order RutStatus lists them is not one of trust, so refusals (the
-// image conditions) rank above the geometric findings, and OK lowest.
-int severity(RutStatus s) {
-  switch (s) {
-    case RutStatus::Ok: return 0;
-    case RutStatus::NoRut: return 1;
-    case RutStatus::RutAtEdge: return 2;
-    case RutStatus::TooFewPoints: return 3;
-    case RutStatus::NoGround: return 4;
-    case RutStatus::NoMeasurement: return 5;
-    default: return 6 + static_cast<int>(s);
-  }
-}
-
 }  // namespace
 
 UplinkSink::UplinkSink(Uplink& uplink, std::function<std::int64_t()> unix_now)
@@ -53,7 +39,7 @@ void UplinkSink::publish(const PublishedFrame& frame) {
     depth_sum_ += m.depth_mm;
     second_.max_depth_mm = second_.ok == 1 ? m.depth_mm : std::max(second_.max_depth_mm, m.depth_mm);
   }
-  if (severity(m.status) > severity(second_.worst_status)) second_.worst_status = m.status;
+  if (status_severity(m.status) > status_severity(second_.worst_status)) second_.worst_status = m.status;
   second_.speed = frame.motion.state;
   second_.position = frame.position;
 }

@@ -60,6 +60,11 @@ enum RutCondition : std::uint8_t {
 
 std::string_view to_string(RutStatus status) noexcept;
 
+// The order of "least trustworthy" for "the worst status of" a stretch (higher: worse): OK first, NO_RUT
+// (a finding), then the statuses whose depth was computed but not trusted, then those where the scene
+// could not be measured at all. A value outside RutStatus ranks worst.
+int status_severity(RutStatus status) noexcept;
+
 struct RutMeasurement {
   RutStatus status = RutStatus::NoMeasurement;
   double depth_mm = 0.0;

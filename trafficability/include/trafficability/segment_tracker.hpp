@@ -19,7 +19,7 @@
 // statistics (numpy's default, Python's statistics.quantiles(method='inclusive')) over the first
 // kMaxDepthsPerSegment of them. depth_uncertainty_mm is the mean of the measurements' uncertainties:
 // their errors (the ground line's) are correlated along a metre, so averaging does not shrink them.
-// Worst status: the least trustworthy in kStatusSeverity's order.
+// Worst status: the least trustworthy in status_severity's order (core/rut_measurement.hpp).
 //
 // Advisory per segment, raw then with hysteresis:
 //   raw UNKNOWN  when the speed was not trustworthy on it, fewer than min_trusted_frames were Ok or NoRut,
@@ -59,9 +59,6 @@ struct SegmentConfig {
 
 // Empty if usable, else what is wrong, naming the field under `key`.
 std::string check_segment_config(const SegmentConfig& config, const std::string& key);
-
-// The order of "least trustworthy" (higher: worse), indexed by RutStatus.
-extern const std::array<std::uint8_t, kRutStatusCount> kStatusSeverity;
 
 struct TrackStats {
   std::uint64_t frames = 0;                   // measurements fed
