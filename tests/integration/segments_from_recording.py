@@ -31,6 +31,7 @@ def main(recording, measurements, work, gear_mode):
     speed = []
     gear = None
     last_accepted = None  # trafficability.speed.min_interval_ms (5): closer frames are a burst, ignored
+    last_value = None  # (t_ns, mm/s) of the last speed value, for the plausibility of the next
     for line in open(os.path.join(recording, "vehicle.log")):
         m = LINE.match(line)
         t_ns = int(m.group(1)) * 10**9 + int(m.group(2)) * 1000
@@ -53,6 +54,14 @@ def main(recording, measurements, work, gear_mode):
             speed.append((t_ns, 1, 0.0))
             continue
         mm_s = raw / 256 / 3.6 * 1000
+        # trafficability.speed.max_accel_m_s2 (15): a faster change from the previous value is implausible,
+        # an error sample (frames bunched by a loaded sender's timing make such changes).
+        jump = last_value is not None and t_ns > last_value[0] and \
+            abs(mm_s - last_value[1]) > 15000 * (t_ns - last_value[0]) / 1e9
+        last_value = (t_ns, mm_s)
+        if jump:
+            speed.append((t_ns, 1, 0.0))
+            continue
         if gear_mode and mm_s != 0:
             if not gear:
                 speed.append((t_ns, 1, 0.0))
