@@ -263,9 +263,11 @@ TEST_F(UplinkBroker, DiskFullUnderTheQueueIsFlaggedAndMeasuringGoesOn) {
   stop_broker();  // nothing leaves, so the queue only grows
   const fs::path cfg = config("full", "truck-7");
   const fs::path log = dir() / "full.log";
-  // The limit is rutd's alone: its candump log goes through a pipe to a writer without it.
-  ASSERT_EQ(run_shell("bash -c 'set -o pipefail; prlimit --fsize=40000 \"$0\" run --config \"$1\" --candump - "
-                      "--frames 240 2>\"$2\" | cat >\"$3\"' " +
+  // The limit is rutd's alone: its candump log (stdout, through fd 3) and its own log (stderr) each go
+  // through a pipe to a writer without it. Written by rutd directly, the log would hit the limit too on
+  // a slow build (about 1 kB a second), and its last lines, the final summary, would be lost.
+  ASSERT_EQ(run_shell("bash -c 'set -o pipefail; { prlimit --fsize=40000 \"$0\" run --config \"$1\" --candump - "
+                      "--frames 240 2>&1 1>&3 | cat >\"$2\"; } 3>&1 | cat >\"$3\"' " +
                       test::quoted(RUTD_BINARY) + " " + test::quoted(cfg) + " " + test::quoted(log) + " " +
                       test::quoted(dir() / "can.log")),
             0)
