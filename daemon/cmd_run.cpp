@@ -43,6 +43,7 @@
 #include "recording/segment_csv_sink.hpp"
 #include "runtime/realtime_pipeline.hpp"
 #include "uplink/uplink_sink.hpp"
+#include "web/live_view.hpp"
 
 namespace rutd {
 namespace {
@@ -198,6 +199,19 @@ int run_daemon(const RunOptions& o, const RunInjection& injection) {
     }
     sinks.push_back(plots.get());
   }
+  // The live view: its own threads, fed a few pairs a second; it sees the segments too.
+  std::unique_ptr<WebLiveView> web;
+  if (c.web.enabled) {
+    try {
+      web =
+          std::make_unique<WebLiveView>(c.web, WebContext{source->calibration(), measurer.geometry().rectification()});
+    } catch (const std::invalid_argument& e) {
+      throw InputError(c.file, "web.token_file", e.what());
+    } catch (const std::exception& e) {
+      throw InputError(c.file, "web.port", e.what());
+    }
+    sinks.push_back(web.get());
+  }
   // Trafficability: the vehicle speed from the bus, recorded beside the pairs as vehicle.log.
   std::unique_ptr<SegmentCsvSink> segments_csv;
   if (!c.trafficability.segments_csv.empty()) {
@@ -266,6 +280,9 @@ int run_daemon(const RunOptions& o, const RunInjection& injection) {
                recorder ? ", recording to " + recorder->directory() : "",
                gps ? fmt::format(", positions from gpsd at {}:{}", c.gps.host, c.gps.port) : "");
   pipeline.start();
+  if (web)
+    spdlog::info("web view at http://{}:{}/",
+                 c.web.bind.find(':') != std::string::npos ? "[" + c.web.bind + "]" : c.web.bind, web->port());
   if (stalling) {
     stalling->arm();
     spdlog::warn("test switch: the match stage stalls after {} pairs", *o.test_stall_match_after);
@@ -306,6 +323,13 @@ int run_daemon(const RunOptions& o, const RunInjection& injection) {
     // second; "offline" last.
     uplink->stop();
     spdlog::info("uplink {}:{}: {}", c.uplink.host, c.uplink.port, describe(uplink->health()));
+  }
+  if (web) {
+    web->stop();
+    const WebHandoff w = web->stats();
+    spdlog::info(
+        "web view: {} pairs shown, {} dropped (view thread behind), {} samples dropped, {} requests, {} refused",
+        w.pairs_offered - w.pairs_dropped, w.pairs_dropped, w.samples_dropped, w.requests, w.refused);
   }
   if (segments_csv) {
     spdlog::info("segment CSV {}: {} rows written, {} lost", segments_csv->path(), segments_csv->rows_written(),

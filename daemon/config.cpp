@@ -579,6 +579,21 @@ void read_uplink(Section s, UplinkConfig& u) {
   s.finish();
 }
 
+// The `web` section (web/web_config.hpp); check_web_config's verdict names the key.
+void read_web(Section s, WebConfig& w) {
+  s.get<bool>("enabled", w.enabled)
+      .get<std::string>("bind", w.bind)
+      .get<int>("port", w.port)
+      .get<std::string>("token_file", w.token_file)
+      .get<double>("rate_hz", w.rate_hz)
+      .get<int>("threads", w.threads);
+  if (const std::string problem = check_web_config(w); !problem.empty()) {
+    const std::string key = problem.substr(0, problem.find(':'));
+    s.fail(key.c_str(), problem.substr(key.size() + 2));
+  }
+  s.finish();
+}
+
 }  // namespace
 
 RutdConfig parse_config(const std::string& yaml_text, const std::string& file) {
@@ -636,6 +651,7 @@ RutdConfig parse_config(const std::string& yaml_text, const std::string& file) {
 
   read_gps(top.child("gps"), c.gps);
   read_uplink(top.child("uplink"), c.uplink);
+  read_web(top.child("web"), c.web);
   if (c.sinks.csv_positions && !c.gps.enabled) sinks.fail("csv_positions", "needs positions: gps.enabled: true");
   sinks.finish();
 

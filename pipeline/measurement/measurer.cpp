@@ -414,6 +414,7 @@ PublishedFrame published_frame(const FrameWork& w, const SensorHealth& health) {
   f.seq = w.frame.seq;
   f.t_ns = w.frame.t_ns;
   f.clock = w.frame.clock;
+  f.skew_ns = w.frame.skew_ns;
   f.measurement = w.measurement;
   f.health = health;
   if (!w.frame.left.empty()) {

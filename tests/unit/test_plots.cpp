@@ -9,6 +9,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "measured_pair.hpp"
 #include "measurement/measurer.hpp"
 #include "plots/plot_sink.hpp"
 #include "plots/plots.hpp"
@@ -151,23 +152,7 @@ TEST(Plots, DisparitySeriesAndOverlayHaveTheirSizeAndContent) {
   EXPECT_NE(bad.error.find("missing/s.png"), std::string::npos) << bad.error;
 }
 
-// One rendered pair measured stage by stage, as the pipeline hands it to its sinks.
-struct Measured {
-  SyntheticRendererConfig config;
-  std::unique_ptr<SyntheticRenderer> renderer;
-  std::unique_ptr<StereoMeasurer> measurer;
-  FrameWork work;
-  Measured() {
-    config.rig.image_size = {320, 240};
-    renderer = std::make_unique<SyntheticRenderer>(config);
-    measurer = std::make_unique<StereoMeasurer>(renderer->calibration(), MeasurerConfig{});
-    renderer->render(0, work.frame);
-    MatchContext ctx = measurer->make_match_context();
-    RutWorkspace ws;
-    measurer->rectify(work);
-    measurer->match(work, ctx);
-    measurer->extract(work, ws);
-  }
+struct Measured : test::MeasuredPair {
   // What the daemon hands the plot sink (cmd_run.cpp).
   PlotContext context() const { return PlotContext{renderer->calibration(), measurer->geometry().rectification()}; }
 };

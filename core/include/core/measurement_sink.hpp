@@ -34,6 +34,7 @@ struct PublishedFrame {
   std::uint64_t seq = 0;  // the source's sequence number
   std::int64_t t_ns = 0;  // capture time, ns, on `clock`
   ClockKind clock = ClockKind::Monotonic;
+  std::int64_t skew_ns = 0;    // right capture time minus left (StereoFrame::skew_ns); 0: synchronised or unknown
   RutMeasurement measurement;  // whatever its status
   SensorHealth health;         // the publisher's view at this moment (RealtimePipeline::health())
   VehicleMotion motion;        // speed and distance at capture time (NoSource without a speed source)

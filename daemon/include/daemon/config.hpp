@@ -18,6 +18,7 @@
 #include "trafficability/odometer.hpp"
 #include "trafficability/segment_tracker.hpp"
 #include "uplink/uplink_config.hpp"
+#include "web/web_config.hpp"
 
 namespace rutd {
 
@@ -91,6 +92,8 @@ struct RutdConfig {
   GpsConfig gps;
   // The `uplink` section: segments and health to an MQTT broker, store and forward (off by default).
   UplinkConfig uplink;
+  // The `web` section: the live view for installing and checking the cameras (off by default).
+  WebConfig web;
   LoggingConfig logging;
 };
 
