@@ -16,8 +16,8 @@ double focus_measure(const cv::Mat& grey8, int row0, int rows) {
   cv::Mat lap;
   cv::Laplacian(grey8.rowRange(pa, pb), lap, CV_32F, 1, 1.0, 0.0, cv::BORDER_REPLICATE);
   // Interior only: the replicated borders have no true neighbours.
-  const cv::Mat inner = lap(cv::Rect(1, a - pa + (a == pa ? 1 : 0), lap.cols - 2,
-                                     (b - a) - (a == pa ? 1 : 0) - (b == pb ? 1 : 0)));
+  const cv::Mat inner =
+      lap(cv::Rect(1, a - pa + (a == pa ? 1 : 0), lap.cols - 2, (b - a) - (a == pa ? 1 : 0) - (b == pb ? 1 : 0)));
   if (inner.rows < 1) return std::numeric_limits<double>::quiet_NaN();
   cv::Scalar mean, sd;
   cv::meanStdDev(inner, mean, sd);
@@ -44,7 +44,8 @@ CameraAiming exposure_figures(const cv::Mat& raw) {
       sum += v;
       saturated += v >= top;
       darkn += v <= dark;
-      ++a.histogram[std::min(kHistogramBins - 1, static_cast<int>(static_cast<std::int64_t>(v) * kHistogramBins / (top + 1)))];
+      ++a.histogram[std::min(kHistogramBins - 1,
+                             static_cast<int>(static_cast<std::int64_t>(v) * kHistogramBins / (top + 1)))];
     }
   };
   for (int y = 0; y < raw.rows; ++y) {

@@ -1,5 +1,6 @@
 #include "web/live_view.hpp"
 
+#include <httplib.h>
 #include <sys/resource.h>
 #include <sys/syscall.h>
 #include <unistd.h>
@@ -15,7 +16,6 @@
 #include <vector>
 
 #include <boost/lockfree/spsc_queue.hpp>
-#include <httplib.h>
 
 #include "core/monotonic_clock.hpp"
 #include "core/slot_queue.hpp"
@@ -172,7 +172,8 @@ WebLiveView::WebLiveView(const WebConfig& config, WebContext context)
   Impl& i = *impl_;
   httplib::Server& s = i.server;
   s.new_task_queue = [n = config.threads] { return new BoundedPool(n, 64); };
-  web_http_configure(s, i.routes, [&i] { return i.current(); }, i.counters);
+  web_http_configure(
+      s, i.routes, [&i] { return i.current(); }, i.counters);
   if (config.port == 0) {
     i.port = s.bind_to_any_port(config.bind);
   } else {

@@ -34,8 +34,8 @@ std::string read_web_token(const std::string& path) {
   if (::stat(path.c_str(), &st) != 0) throw std::invalid_argument(path + ": cannot read the token file");
   if ((st.st_mode & 077) != 0)
     throw std::invalid_argument(path + ": the token file is readable by others (mode " +
-                             std::to_string((st.st_mode >> 6) & 7) + std::to_string((st.st_mode >> 3) & 7) +
-                             std::to_string(st.st_mode & 7) + "); chmod 600 it");
+                                std::to_string((st.st_mode >> 6) & 7) + std::to_string((st.st_mode >> 3) & 7) +
+                                std::to_string(st.st_mode & 7) + "); chmod 600 it");
   std::ifstream in(path);
   std::string line;
   if (!in || !std::getline(in, line)) throw std::invalid_argument(path + ": cannot read the token file");

@@ -1,11 +1,11 @@
 #pragma once
 // Private to drivers/web (and its fuzz target): how the live view sets up cpp-httplib, so that the
 // server the fuzz target drives in memory is the one rutd runs.
+#include <httplib.h>
+
 #include <atomic>
 #include <functional>
 #include <memory>
-
-#include <httplib.h>
 
 #include "web/web_routes.hpp"
 

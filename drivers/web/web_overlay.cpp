@@ -11,9 +11,9 @@
 namespace rutd {
 namespace {
 
-const cv::Scalar kStripColour(255, 200, 0);   // BGR: the measured rows
-const cv::Scalar kEdgeColour(0, 220, 255);    // the rut's edges (ground-line crossings)
-const cv::Scalar kDeepestColour(40, 40, 255); // the deepest point
+const cv::Scalar kStripColour(255, 200, 0);    // BGR: the measured rows
+const cv::Scalar kEdgeColour(0, 220, 255);     // the rut's edges (ground-line crossings)
+const cv::Scalar kDeepestColour(40, 40, 255);  // the deepest point
 
 // Rectified pixel of a point in the left rectified camera frame (mm) in the left or right view.
 cv::Point2d project(const WebContext& c, bool left, const cv::Vec3d& p) {

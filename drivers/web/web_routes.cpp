@@ -56,7 +56,8 @@ WebAnswer WebRoutes::answer(const WebRequest& r, std::shared_ptr<const WebConten
   if (r.path == "/style.css") return page(web_page_css(), "text/css; charset=utf-8");
   bool presented = false;
   if (!authorised(r, presented))
-    return presented ? error(403, "wrong token") : error(401, "a token is required (Authorization: Bearer, or ?token=)");
+    return presented ? error(403, "wrong token")
+                     : error(401, "a token is required (Authorization: Bearer, or ?token=)");
   const std::string* body = nullptr;
   std::string_view type;
   if (r.path == "/api/live.json") body = content ? &content->live_json : nullptr, type = "application/json";

@@ -79,9 +79,8 @@ std::string health_json(const SensorHealth& h) {
 std::string aiming_json(const CameraAiming& a) {
   std::string hist;
   for (std::size_t i = 0; i < a.histogram.size(); ++i) hist += fmt::format("{}{}", i ? "," : "", a.histogram[i]);
-  return fmt::format(
-      R"({{"focus":{},"top":{},"mean":{},"saturated_share":{},"dark_share":{},"histogram":[{}]}})",
-      num(a.focus, 1), a.top, num(a.mean, 4), num(a.saturated_share, 5), num(a.dark_share, 5), hist);
+  return fmt::format(R"({{"focus":{},"top":{},"mean":{},"saturated_share":{},"dark_share":{},"histogram":[{}]}})",
+                     num(a.focus, 1), a.top, num(a.mean, 4), num(a.saturated_share, 5), num(a.dark_share, 5), hist);
 }
 
 std::string section_json(const WebFrame& f) {
@@ -96,8 +95,8 @@ std::string section_json(const WebFrame& f) {
   std::string out = fmt::format(R"({{"x_mm":[{}],"z_mm":[{}])", x, z);
   if (g.has_line) out += fmt::format(R"(,"ground_line":{{"m":{},"c_mm":{}}})", num(g.line_m, 6), num(g.line_c, 3));
   if (g.has_rut) {
-    const double deepest_z = g.line_m * g.deepest_x_mm + g.line_c +
-                             f.measurement.depth_mm * std::sqrt(1 + g.line_m * g.line_m);
+    const double deepest_z =
+        g.line_m * g.deepest_x_mm + g.line_c + f.measurement.depth_mm * std::sqrt(1 + g.line_m * g.line_m);
     out += fmt::format(R"(,"rut":{{"left_x_mm":{},"right_x_mm":{},"deepest_x_mm":{},"deepest_z_mm":{}}})",
                        num(g.left_x_mm, 2), num(g.right_x_mm, 2), num(g.deepest_x_mm, 2), num(deepest_z, 2));
   }
@@ -110,9 +109,10 @@ std::string section_json(const WebFrame& f) {
 
 std::string segment_json(const Segment& s) {
   return fmt::format(
-      R"({{"index":{},"start_m":{},"end_m":{},"frames":{},"refused":{},"mean_depth_mm":{},"p95_depth_mm":{},)"
-      R"("max_depth_mm":{},"worst_status":"{}","advisory":"{}","pass":{}}})",
-      s.index, num(s.start_m, 2), num(s.end_m, 2), s.frames, s.refused, num(s.mean_depth_mm, 2),
+      R"({{"index":{},"start_m":{},"end_m":{},"t_start_s":{},"t_end_s":{},"frames":{},"refused":{},)"
+      R"("mean_depth_mm":{},"p95_depth_mm":{},"max_depth_mm":{},"worst_status":"{}","advisory":"{}","pass":{}}})",
+      s.index, num(s.start_m, 2), num(s.end_m, 2), num(static_cast<double>(s.t_start_ns) * 1e-9, 3),
+      num(static_cast<double>(s.t_end_ns) * 1e-9, 3), s.frames, s.refused, num(s.mean_depth_mm, 2),
       num(s.p95_depth_mm, 2), num(s.max_depth_mm, 2), to_string(s.worst_status), to_string(s.advisory), s.pass);
 }
 
@@ -206,11 +206,11 @@ std::string WebView::live_json(std::int64_t now_ns, const WebHandoff& h) const {
   const WebFrame& f = frame_;
   const RutMeasurement& m = f.measurement;
   const SensorHealth& health = have_health_ ? health_ : f.health;
-  std::string out = fmt::format(
-      R"({{"seq":{},"t_s":{},"age_s":{},"status":"{}","status_code":{},"status_meaning":"{}",)", have_frame_ ? f.seq : 0,
-      have_frame_ ? num(static_cast<double>(f.t_ns) * 1e-9, 3) : "null",
-      have_frame_ ? num(static_cast<double>(now_ns - f.t_ns) * 1e-9, 3) : "null", to_string(m.status),
-      static_cast<int>(m.status), status_meaning(m.status));
+  std::string out =
+      fmt::format(R"({{"seq":{},"t_s":{},"age_s":{},"status":"{}","status_code":{},"status_meaning":"{}",)",
+                  have_frame_ ? f.seq : 0, have_frame_ ? num(static_cast<double>(f.t_ns) * 1e-9, 3) : "null",
+                  have_frame_ ? num(static_cast<double>(now_ns - f.t_ns) * 1e-9, 3) : "null", to_string(m.status),
+                  static_cast<int>(m.status), status_meaning(m.status));
   const bool ok = m.status == RutStatus::Ok;
   out += fmt::format(
       R"("measurement":{{"depth_mm":{},"width_mm":{},"left_pile_mm":{},"right_pile_mm":{},"area_mm2":{},)"
@@ -218,9 +218,8 @@ std::string WebView::live_json(std::int64_t now_ns, const WebHandoff& h) const {
       R"("vertical_disparity_px":{},"obstructed_left":{},"obstructed_right":{}}},)",
       ok ? num(m.depth_mm, 2) : "null", ok ? num(m.width_mm, 1) : "null", ok ? num(m.left_pile_mm, 2) : "null",
       ok ? num(m.right_pile_mm, 2) : "null", ok ? num(m.area_mm2, 0) : "null", num(m.ground_slope_deg, 2),
-      ok ? num(m.center_x_mm, 1) : "null", num(m.quality, 3), num(m.valid_fraction, 3),
-      num(m.depth_uncertainty_mm, 3), num(m.vertical_disparity_px, 3), num(m.obstructed_left, 3),
-      num(m.obstructed_right, 3));
+      ok ? num(m.center_x_mm, 1) : "null", num(m.quality, 3), num(m.valid_fraction, 3), num(m.depth_uncertainty_mm, 3),
+      num(m.vertical_disparity_px, 3), num(m.obstructed_left, 3), num(m.obstructed_right, 3));
   out += fmt::format(R"("conditions":{},"health":{},"frame_rate_hz":{},"dropped_frames":{},"last_status":"{}",)",
                      conditions_json(m.conditions), health_json(health), num(health.frame_rate_hz, 2),
                      health.dropped_frames, to_string(health.last_status));
@@ -234,20 +233,21 @@ std::string WebView::live_json(std::int64_t now_ns, const WebHandoff& h) const {
   out += fmt::format(R"("motion":{{"speed":"{}","speed_km_h":{},"distance_m":{}}},)", to_string(f.motion.state),
                      f.motion.state == SpeedState::Ok ? num(f.motion.speed_mm_s * 3.6e-3, 2) : "null",
                      num(f.motion.distance_m, 2));
-  out += f.position.valid() ? fmt::format(R"("position":{{"latitude_deg":{},"longitude_deg":{},"horizontal_error_m":{}}},)",
-                                          num(f.position.latitude_deg, 8), num(f.position.longitude_deg, 8),
-                                          num(f.position.horizontal_error_m, 2))
-                            : std::string(R"("position":null,)");
+  out += f.position.valid()
+             ? fmt::format(R"("position":{{"latitude_deg":{},"longitude_deg":{},"horizontal_error_m":{}}},)",
+                           num(f.position.latitude_deg, 8), num(f.position.longitude_deg, 8),
+                           num(f.position.horizontal_error_m, 2))
+             : std::string(R"("position":null,)");
   out += fmt::format(R"("advisory":"{}","last_segment":{},"segments":{},)",
                      segments_.empty() ? "UNKNOWN" : to_string(segments_.back().advisory),
                      segments_.empty() ? "null" : segment_json(segments_.back()), segments_seen_);
-  out += fmt::format(
-      R"("stage_ms":{{"rectify":{},"band":{},"disparity":{},"dic":{},"reproject":{},"rut":{}}},)",
-      num(f.times.rectify_ms, 2), num(f.times.band_ms, 2), num(f.times.disparity_ms, 2), num(f.times.dic_ms, 2),
-      num(f.times.reproject_ms, 2), num(f.times.rut_ms, 2));
-  out += fmt::format(
-      R"("images":{{"left":{},"right":{},"strip":{}}},)", left_jpeg_.empty() ? "null" : "\"/api/image/left.jpg\"",
-      right_jpeg_.empty() ? "null" : "\"/api/image/right.jpg\"", strip_png_.empty() ? "null" : "\"/api/image/strip.png\"");
+  out += fmt::format(R"("stage_ms":{{"rectify":{},"band":{},"disparity":{},"dic":{},"reproject":{},"rut":{}}},)",
+                     num(f.times.rectify_ms, 2), num(f.times.band_ms, 2), num(f.times.disparity_ms, 2),
+                     num(f.times.dic_ms, 2), num(f.times.reproject_ms, 2), num(f.times.rut_ms, 2));
+  out += fmt::format(R"("images":{{"left":{},"right":{},"strip":{}}},)",
+                     left_jpeg_.empty() ? "null" : "\"/api/image/left.jpg\"",
+                     right_jpeg_.empty() ? "null" : "\"/api/image/right.jpg\"",
+                     strip_png_.empty() ? "null" : "\"/api/image/strip.png\"");
   out += fmt::format(
       R"("view":{{"pairs_offered":{},"pairs_dropped":{},"samples_dropped":{},"requests":{},"refused":{},"status_age_s":{}}}}})",
       h.pairs_offered, h.pairs_dropped, h.samples_dropped, h.requests, h.refused,
@@ -259,10 +259,11 @@ std::string WebView::history_json(std::int64_t now_ns) const {
   std::string out = fmt::format(R"({{"bin_s":0.1,"now_s":{},"bins":[)", num(static_cast<double>(now_ns) * 1e-9, 3));
   bool first = true;
   for (const Bin& b : bins_) {
-    out += fmt::format(R"({}{{"t_s":{},"frames":{},"ok":{},"depth_max_mm":{},"depth_last_mm":{},"worst_status":"{}","conditions":{}}})",
-                       first ? "" : ",", num(static_cast<double>(b.key * kBinNs) * 1e-9, 1), b.frames, b.ok,
-                       b.has_depth ? num(b.depth_max, 2) : "null", b.has_depth ? num(b.depth_last, 2) : "null",
-                       to_string(b.worst), b.conditions);
+    out += fmt::format(
+        R"({}{{"t_s":{},"frames":{},"ok":{},"depth_max_mm":{},"depth_last_mm":{},"worst_status":"{}","conditions":{}}})",
+        first ? "" : ",", num(static_cast<double>(b.key * kBinNs) * 1e-9, 1), b.frames, b.ok,
+        b.has_depth ? num(b.depth_max, 2) : "null", b.has_depth ? num(b.depth_last, 2) : "null", to_string(b.worst),
+        b.conditions);
     first = false;
   }
   out += R"(],"segments":[)";

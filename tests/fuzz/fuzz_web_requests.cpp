@@ -63,7 +63,8 @@ struct Fixture {
     c->right_jpeg = "RIGHT-JPEG-BYTES";
     c->strip_png = "STRIP-PNG-BYTES";
     content = c;
-    rutd::web_http_configure(server, routes, [this] { return content; }, counters);
+    rutd::web_http_configure(
+        server, routes, [this] { return content; }, counters);
   }
   rutd::WebRoutes routes;
   std::shared_ptr<const rutd::WebContent> content;
@@ -90,15 +91,16 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   if (status < 200 || status > 599) rutd::fuzz::fail("status out of range", out.substr(0, 80));
   if (status >= 200 && status < 300) {
     const std::string& c = f.content->live_json;
-    const bool page = body_is(out, rutd::web_page_html()) || body_is(out, rutd::web_page_js()) ||
-                      body_is(out, rutd::web_page_css());
+    const bool page =
+        body_is(out, rutd::web_page_html()) || body_is(out, rutd::web_page_js()) || body_is(out, rutd::web_page_css());
     const bool vehicle_data = body_is(out, c) || body_is(out, f.content->history_json) ||
-                      body_is(out, f.content->left_jpeg) || body_is(out, f.content->right_jpeg) ||
-                      body_is(out, f.content->strip_png);
+                              body_is(out, f.content->left_jpeg) || body_is(out, f.content->right_jpeg) ||
+                              body_is(out, f.content->strip_png);
     // HEAD answers carry no body.
     const std::string_view in(reinterpret_cast<const char*>(data), size);
     const bool head = in.substr(0, 5) == "HEAD ";
-    if (!page && !vehicle_data && !head) rutd::fuzz::fail("a 2xx answer that is none of the view's", out.substr(0, 200));
+    if (!page && !vehicle_data && !head)
+      rutd::fuzz::fail("a 2xx answer that is none of the view's", out.substr(0, 200));
     if (vehicle_data && in.find(kToken) == std::string_view::npos)
       rutd::fuzz::fail("data served to a request without the token", out.substr(0, 200));
   }

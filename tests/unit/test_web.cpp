@@ -2,6 +2,8 @@
 // from rectified to raw pixels against OpenCV's own inverse (cv::undistortPoints), the answers to
 // requests (tokens, paths, methods), and the whole sink: pairs published at camera rate reach the page at
 // the configured rate, through cpp-httplib's own client, with the figures of the pair shown.
+#include <httplib.h>
+
 #include <chrono>
 #include <cmath>
 #include <fstream>
@@ -9,7 +11,6 @@
 #include <thread>
 
 #include <gtest/gtest.h>
-#include <httplib.h>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -107,8 +108,7 @@ TEST(WebOverlay, RawPixelsOfRectifiedOnesAreOpenCvsInverse) {
         const cv::Point2d raw = raw_from_rectified(c, left, {double(u), double(v)});
         std::vector<cv::Point2d> back;
         cv::undistortPoints(std::vector<cv::Point2d>{raw}, back, left ? c.calibration.M1 : c.calibration.M2,
-                            left ? c.calibration.D1 : c.calibration.D2,
-                            left ? c.rectification.R1 : c.rectification.R2,
+                            left ? c.calibration.D1 : c.calibration.D2, left ? c.rectification.R1 : c.rectification.R2,
                             left ? c.rectification.P1 : c.rectification.P2);
         EXPECT_NEAR(back[0].x, u, 0.02) << left << " " << u << "," << v;
         EXPECT_NEAR(back[0].y, v, 0.02) << left << " " << u << "," << v;
@@ -220,6 +220,15 @@ TEST(WebLiveView, PairsAtCameraRateReachThePageAtTheConfiguredRateWithTheirFigur
     std::this_thread::sleep_until(t0 + i * 10ms);
   }
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  // A segment closed over the last pairs: its advisory is the page's, and the history places it in time.
+  Segment seg;
+  seg.index = 4;
+  seg.start_m = 4;
+  seg.end_m = 5;
+  seg.t_start_ns = 2'000'000'000;
+  seg.t_end_ns = 2'990'000'000;
+  seg.advisory = Advisory::NoGo;
+  view.publish_segment(seg);
   std::this_thread::sleep_for(400ms);  // the view thread builds what it has
   const auto live = client.Get("/api/live.json");
   ASSERT_TRUE(live);
@@ -229,6 +238,16 @@ TEST(WebLiveView, PairsAtCameraRateReachThePageAtTheConfiguredRateWithTheirFigur
   ASSERT_GE(seq, 1);
   EXPECT_NEAR(json_number(j, "depth_mm"), 40.0 + 0.01 * seq, 0.006) << j.substr(0, 400);
   EXPECT_NEAR(json_number(j, "published_rate_hz"), 100, 15) << "every pair is a sample, whatever the rate";
+  EXPECT_NE(j.find(R"("advisory":"NO_GO")"), std::string::npos) << j.substr(0, 400);
+  const auto history = client.Get("/api/history.json");
+  ASSERT_TRUE(history);
+  EXPECT_NE(history->body.find(R"("index":4,"start_m":4.00,"end_m":5.00,"t_start_s":2.000,"t_end_s":2.990)"),
+            std::string::npos)
+      << history->body.substr(0, 400);
+  // Every pair is a sample: 3 s of them in 0.1 s bins, 10 pairs each.
+  EXPECT_NE(history->body.find(R"({"t_s":1.5,"frames":10,"ok":10,"depth_max_mm":41.59,"depth_last_mm":41.59,)"),
+            std::string::npos)
+      << history->body.substr(0, 400);
   const WebHandoff h = view.stats();
   EXPECT_LE(h.pairs_offered, static_cast<std::uint64_t>(seconds * 5) + 1);
   EXPECT_GE(h.pairs_offered, static_cast<std::uint64_t>(seconds * 5 * 0.6));
@@ -249,7 +268,8 @@ TEST(WebLiveView, PairsAtCameraRateReachThePageAtTheConfiguredRateWithTheirFigur
   const RutGeometry& g = m.work.geometry;
   const auto& r = m.context().rectification;
   const double v = m.work.measured_row0 + 0.5 * m.work.measured_rows;
-  const double z = g.line_m * g.deepest_x_mm + g.line_c + m.work.measurement.depth_mm * std::sqrt(1 + g.line_m * g.line_m);
+  const double z =
+      g.line_m * g.deepest_x_mm + g.line_c + m.work.measurement.depth_mm * std::sqrt(1 + g.line_m * g.line_m);
   const cv::Point2d rect(r.P1(0, 0) * g.deepest_x_mm / z + r.P1(0, 2), v);
   const cv::Point2d raw = raw_from_rectified(m.context(), true, rect);
   int red = 0;
@@ -262,7 +282,7 @@ TEST(WebLiveView, PairsAtCameraRateReachThePageAtTheConfiguredRateWithTheirFigur
     }
   EXPECT_GE(red, 8) << "at " << raw;
   view.stop();
-  EXPECT_EQ(view.stats().requests, 3u);
+  EXPECT_EQ(view.stats().requests, 4u);
 }
 
 TEST(WebLiveView, APortInUseIsAStartUpErrorNamingTheAddress) {

@@ -74,7 +74,8 @@ class WebView : public ::testing::Test {
     const fs::path p = dir() / (name + ".yaml");
     // The embedded default's source (8 pairs rendered once, played at 30 Hz as cameras deliver), unless
     // the case replays a recording.
-    std::ofstream(p) << (extra.find("source:") == std::string::npos ? "source:\n  synthetic:\n    cycle_frames: 8\n" : "")
+    std::ofstream(p) << (extra.find("source:") == std::string::npos ? "source:\n  synthetic:\n    cycle_frames: 8\n"
+                                                                    : "")
                      << "web:\n  enabled: true\n  port: 0\n"
                      << extra;
     return p;
@@ -95,16 +96,15 @@ class WebView : public ::testing::Test {
 
 TEST_F(WebView, ThePageShowsLivePicturesAndTheFiguresOfTheCsv) {
   const fs::path log = dir() / "rutd.log", csv = dir() / "m.csv";
-  test::ProcessGroup rutd({RUTD_BINARY, "run", "--config", config("live", "").string(), "--candump", "", "--csv",
-                           csv.string()},
-                          log);
+  test::ProcessGroup rutd(
+      {RUTD_BINARY, "run", "--config", config("live", "").string(), "--candump", "", "--csv", csv.string()}, log);
   const int port = wait_for_view(log, rutd);
   ASSERT_GT(port, 0) << read_text(log);
   // A screenshot too, as the README's docs/web-view.png was taken.
   const std::string page = load_page(port, "", dir() / "page.png");
   // The bits' names are the CAN signals', as canmatrix reads the DBC.
-  EXPECT_EQ(run_shell(std::string(kPython) + " " + test::quoted(kDir + "/check_bit_names.py") +
-                      " http://127.0.0.1:" + std::to_string(port) + "/api/live.json " RUTD_SOURCE_DIR "/config/rutd.dbc"),
+  EXPECT_EQ(run_shell(std::string(kPython) + " " + test::quoted(kDir + "/check_bit_names.py") + " http://127.0.0.1:" +
+                      std::to_string(port) + "/api/live.json " RUTD_SOURCE_DIR "/config/rutd.dbc"),
             0);
   rutd.stop();
   std::printf("[ page     ] %s\n", page.c_str());
@@ -146,10 +146,10 @@ TEST_F(WebView, ASpoiledSceneShowsItsCondition) {
                            " --frames 6 --size 320x240 --depth 50 --splash 1 --splash-camera left --seed 45"),
             0);
   const fs::path log = dir() / "rutd.log";
-  test::ProcessGroup rutd({RUTD_BINARY, "run", "--config",
-                           config("covered", "source:\n  replay:\n    loop: true\n").string(), "--replay",
-                           rec.string(), "--candump", ""},
-                          log);
+  test::ProcessGroup rutd(
+      {RUTD_BINARY, "run", "--config", config("covered", "source:\n  replay:\n    loop: true\n").string(), "--replay",
+       rec.string(), "--candump", ""},
+      log);
   const int port = wait_for_view(log, rutd);
   ASSERT_GT(port, 0) << read_text(log);
   const std::string page = load_page(port);
@@ -170,10 +170,10 @@ TEST_F(WebView, BadRequestsGetA4xxAndTheViewGoesOn) {
   std::ofstream(token) << "k7V9wQ2mZr4Lx8Tn3Pb6\n";
   ::chmod(token.c_str(), 0600);
   const fs::path log = dir() / "rutd.log";
-  test::ProcessGroup rutd({RUTD_BINARY, "run", "--config",
-                           config("open", "  bind: 0.0.0.0\n  token_file: " + token.string() + "\n").string(),
-                           "--candump", ""},
-                          log);
+  test::ProcessGroup rutd(
+      {RUTD_BINARY, "run", "--config",
+       config("open", "  bind: 0.0.0.0\n  token_file: " + token.string() + "\n").string(), "--candump", ""},
+      log);
   const int port = wait_for_view(log, rutd);
   ASSERT_GT(port, 0) << read_text(log);
   for (int i = 0; i < 100 && read_text(log).find("ready: first good") == std::string::npos; ++i)

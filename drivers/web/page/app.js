@@ -105,8 +105,16 @@ function drawHistory(canvas, h) {
   const px = (t) => canvas.width - ((end - t) / 60) * canvas.width;
   const py = (d) => (d / top) * (canvas.height - 20) + 10;  // depth downwards, as in the ground
   g.fillStyle = '#333';
-  g.fillText('0 mm', 2, 10);
+  g.fillText('0 mm', 2, 16);
   g.fillText(top.toFixed(0) + ' mm', 2, canvas.height - 2);
+  // The advisory of each segment closed in the last minute, as a band along the top.
+  const colours = { GO: '#2e7d32', CAUTION: '#e0a800', NO_GO: '#b3261e', UNKNOWN: '#9e9e9e' };
+  for (const s of h.segments) {
+    if (s.t_end_s === null || end - s.t_end_s > 60) continue;
+    const x0 = Math.max(0, px(s.t_start_s)), x1 = Math.max(x0 + 1, px(s.t_end_s));
+    g.fillStyle = colours[s.advisory] || '#9e9e9e';
+    g.fillRect(x0, 0, x1 - x0, 6);
+  }
   for (const b of h.bins) {
     const x = px(b.t_s);
     if (b.worst_status !== 'OK' && b.worst_status !== 'NO_RUT') {

@@ -21,9 +21,9 @@ struct CameraAiming {
   // 8-bit images; for 16-bit containers the smallest 2^k - 1 at or above the brightest pixel (4095 for a
   // 12-bit sensor), at least 255.
   int top = 255;
-  double mean = 0.0;             // mean grey level as a fraction of top, 0..1
-  double saturated_share = 0.0;  // pixels at top
-  double dark_share = 0.0;       // pixels at or below 2 % of top
+  double mean = 0.0;                                      // mean grey level as a fraction of top, 0..1
+  double saturated_share = 0.0;                           // pixels at top
+  double dark_share = 0.0;                                // pixels at or below 2 % of top
   std::array<std::uint32_t, kHistogramBins> histogram{};  // pixel counts in equal bins of 0..top
 };
 

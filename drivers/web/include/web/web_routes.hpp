@@ -26,7 +26,7 @@ inline constexpr std::size_t kWebMaxHeaders = 64;
 struct WebAnswer {
   int status = 200;
   std::string_view content_type = "text/plain; charset=utf-8";
-  std::string_view body;                  // status 200: points into `keep` or into the page's static text
+  std::string_view body;                   // status 200: points into `keep` or into the page's static text
   std::shared_ptr<const WebContent> keep;  // holds `body` alive while it is sent
   std::string message;                     // any other status: the body, one line saying why
 };

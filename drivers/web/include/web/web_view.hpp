@@ -22,9 +22,9 @@ struct WebContext {
 };
 
 struct WebContent {
-  std::uint64_t seq = 0;     // the pair shown; 0 before the first
-  std::string live_json;     // GET /api/live.json
-  std::string history_json;  // GET /api/history.json
+  std::uint64_t seq = 0;              // the pair shown; 0 before the first
+  std::string live_json;              // GET /api/live.json
+  std::string history_json;           // GET /api/history.json
   std::string left_jpeg, right_jpeg;  // the raw images with the strip, rut edges and deepest point drawn
   std::string strip_png;              // the rectified strips, left over right, with the same marks
 };
@@ -59,7 +59,7 @@ class WebView {
   std::shared_ptr<const WebContent> build(std::int64_t now_ns, const WebHandoff& handoff) const;
 
  private:
-  struct Bin {  // 100 ms of samples
+  struct Bin {             // 100 ms of samples
     std::int64_t key = 0;  // t_ns / 100 ms
     float depth_max = 0, depth_last = 0;
     bool has_depth = false;
