@@ -149,7 +149,7 @@ PlotResult plot_cross_section(const std::string& path, const CrossSection& secti
   if (!std::isfinite(zmin) || n < 2) return fail(path, "cross-section has no valid point to plot");
   const double xl = x.front(), xr = x.back();
   const double norm = std::sqrt(1.0 + geo.line_m * geo.line_m);
-  const double deepest_z = geo.line_m * geo.deepest_x_mm + geo.line_c + m.depth_mm * norm;
+  const double deepest_z = deepest_z_mm(geo, m.depth_mm);
   if (geo.has_line) {
     for (double xe : {xl, xr}) {
       zmin = std::min(zmin, geo.line_m * xe + geo.line_c);

@@ -38,7 +38,7 @@ RutMarks rut_marks(const WebContext& c, const WebFrame& f) {
   const auto line = [&](double x) { return g.line_m * x + g.line_c; };
   m.left_edge = at(g.left_x_mm, line(g.left_x_mm));
   m.right_edge = at(g.right_x_mm, line(g.right_x_mm));
-  m.deepest = at(g.deepest_x_mm, line(g.deepest_x_mm) + f.measurement.depth_mm * std::sqrt(1 + g.line_m * g.line_m));
+  m.deepest = at(g.deepest_x_mm, deepest_z_mm(g, f.measurement.depth_mm));
   m.valid = m.left_edge[2] > 0 && m.right_edge[2] > 0 && m.deepest[2] > 0;
   return m;
 }

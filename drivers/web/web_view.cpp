@@ -95,8 +95,7 @@ std::string section_json(const WebFrame& f) {
   std::string out = fmt::format(R"({{"x_mm":[{}],"z_mm":[{}])", x, z);
   if (g.has_line) out += fmt::format(R"(,"ground_line":{{"m":{},"c_mm":{}}})", num(g.line_m, 6), num(g.line_c, 3));
   if (g.has_rut) {
-    const double deepest_z =
-        g.line_m * g.deepest_x_mm + g.line_c + f.measurement.depth_mm * std::sqrt(1 + g.line_m * g.line_m);
+    const double deepest_z = deepest_z_mm(g, f.measurement.depth_mm);
     out += fmt::format(R"(,"rut":{{"left_x_mm":{},"right_x_mm":{},"deepest_x_mm":{},"deepest_z_mm":{}}})",
                        num(g.left_x_mm, 2), num(g.right_x_mm, 2), num(g.deepest_x_mm, 2), num(deepest_z, 2));
   }

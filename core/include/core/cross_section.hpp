@@ -4,6 +4,7 @@
 // rut's edges, the deepest point, the piles. What a sink needs to draw or describe the rut (a plot, a
 // live view) without the rut extraction. Millimetres, left rectified camera frame: X across the rut,
 // Z distance from the camera.
+#include <cmath>
 #include <vector>
 
 namespace rutd {
@@ -47,5 +48,11 @@ struct RutGeometry {
   double waterline_left_x_mm = 0.0, waterline_right_x_mm = 0.0;
   bool refracted = false;
 };
+
+// Z of the deepest point, depth_mm below the ground line measured perpendicular to it (see RutGeometry);
+// valid where g.has_rut.
+inline double deepest_z_mm(const RutGeometry& g, double depth_mm) {
+  return g.line_m * g.deepest_x_mm + g.line_c + depth_mm * std::sqrt(1 + g.line_m * g.line_m);
+}
 
 }  // namespace rutd
