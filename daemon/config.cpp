@@ -318,6 +318,8 @@ void read_conditions(Section s, ConditionConfig& c) {
       .get<double>("min_texture", c.min_texture, in_range(0.0, 255.0))
       .get<double>("obstruction_min_fraction", c.obstruction_min_fraction, in_range(0.001, 1.0))
       .get<double>("low_light_level", c.low_light_level, in_range(0.0, 0.99))
+      .get<double>("low_light_texture_to_noise", c.low_light_texture_to_noise, in_range(0.0, 100.0))
+      .get<double>("low_light_noise", c.low_light_noise, in_range(0.001, 0.99))
       .get<double>("overexposed_fraction", c.overexposed_fraction, in_range(0.001, 1.0))
       .get<double>("flat_ratio", c.flat_ratio, in_range(0.01, 0.99))
       .get<double>("flat_min_width_mm", c.flat_min_width_mm, in_range(0.1, 1000.0))

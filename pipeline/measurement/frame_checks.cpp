@@ -231,6 +231,70 @@ bool depth_found(RutStatus status) {
 
 }  // namespace
 
+ImageSignal image_signal(const cv::Mat& raw, int row_begin, int row_end, int max_rows,
+                         std::vector<std::uint32_t>& histogram) noexcept {
+  ImageSignal out;
+  if (raw.empty() || raw.channels() != 1 || (raw.depth() != CV_8U && raw.depth() != CV_16U) || raw.cols < 8 ||
+      raw.rows < 3 || max_rows < 1)
+    return out;
+  row_begin = std::clamp(row_begin, 1, raw.rows - 1);
+  row_end = std::clamp(row_end, row_begin, raw.rows - 1);
+  if (row_end - row_begin < 1) return out;
+  const int step = std::max(1, (row_end - row_begin) / max_rows);
+  // Full scale: 255 for 8-bit pixels; for 16-bit ones the sensor's (the smallest 2^k - 1 at or above the
+  // brightest pixel read: 4095 for a 12-bit sensor), as the exposure figures take it.
+  double full_scale = 255.0;
+  if (raw.depth() == CV_16U) {
+    int brightest = 0;
+    for (int y = row_begin; y < row_end; y += step) {
+      const std::uint16_t* p = raw.ptr<std::uint16_t>(y);
+      for (int x = 0; x < raw.cols; ++x) brightest = std::max<int>(brightest, p[x]);
+    }
+    int top = 255;
+    while (top < brightest && top < 65535) top = top * 2 + 1;
+    full_scale = top;
+  }
+  // |Laplacian| into a histogram of quarter grey levels of an 8-bit scale (4096 bins: up to 4 full
+  // scales); its median gives the noise.
+  constexpr std::size_t kBins = 4096;
+  const double unit = full_scale / (4.0 * 255.0);
+  histogram.assign(kBins, 0);
+  double gradient2 = 0.0;
+  long count = 0;
+  const auto pass = [&](auto pixel_type) {
+    using P = decltype(pixel_type);
+    for (int y = row_begin; y < row_end; y += step) {
+      const P* a = raw.ptr<P>(y - 1);
+      const P* b = raw.ptr<P>(y);
+      const P* c = raw.ptr<P>(y + 1);
+      for (int x = 1; x + 1 < raw.cols; ++x) {
+        const long lap = long(a[x - 1]) - 2 * long(a[x]) + long(a[x + 1]) - 2 * long(b[x - 1]) + 4 * long(b[x]) -
+                         2 * long(b[x + 1]) + long(c[x - 1]) - 2 * long(c[x]) + long(c[x + 1]);
+        const double bin = double(std::labs(lap)) / unit;
+        ++histogram[bin < double(kBins - 1) ? static_cast<std::size_t>(bin) : kBins - 1];
+        const double d = double(b[x + 1]) - double(b[x]);
+        gradient2 += d * d;
+        ++count;
+      }
+    }
+  };
+  if (raw.depth() == CV_8U) pass(std::uint8_t{});
+  else pass(std::uint16_t{});
+  if (count == 0) return out;
+  std::uint64_t below = 0;
+  std::size_t median = 0;
+  while (median + 1 < kBins && 2 * (below + histogram[median]) < static_cast<std::uint64_t>(count))
+    below += histogram[median++];
+  // The kernel's weights square-sum to 36: white noise of deviation s gives a Laplacian of deviation 6 s,
+  // whose absolute value has its median at 0.6745 of that. The median keeps the texture's edges out.
+  const double median_abs = (double(median) + 0.5) * unit;
+  out.noise = median_abs / (0.6745 * 6.0) / full_scale;
+  out.texture = std::sqrt(gradient2 / double(count)) / full_scale;
+  const double signal2 = out.texture * out.texture - 2.0 * out.noise * out.noise;
+  out.texture_to_noise = signal2 > 0.0 ? std::sqrt(signal2) / (std::sqrt(2.0) * out.noise) : 0.0;
+  return out;
+}
+
 void validate(const ConditionConfig& c) {
   require(c.block_px >= 4 && c.block_px <= 256, "block_px", "must be within [4, 256]");
   require(c.obstruction_ratio > 0 && c.obstruction_ratio < 1, "obstruction_ratio", "must be within (0, 1)");
@@ -238,6 +302,8 @@ void validate(const ConditionConfig& c) {
   require(c.obstruction_min_fraction > 0 && c.obstruction_min_fraction <= 1, "obstruction_min_fraction",
           "must be within (0, 1]");
   require(c.low_light_level >= 0 && c.low_light_level < 1, "low_light_level", "must be within [0, 1)");
+  require(c.low_light_texture_to_noise >= 0, "low_light_texture_to_noise", "must be >= 0");
+  require(c.low_light_noise > 0 && c.low_light_noise < 1, "low_light_noise", "must be within (0, 1)");
   require(c.saturated_level > 0 && c.saturated_level <= 1, "saturated_level", "must be within (0, 1]");
   require(c.overexposed_fraction > 0 && c.overexposed_fraction <= 1, "overexposed_fraction", "must be within (0, 1]");
   require(c.flat_ratio > 0 && c.flat_ratio < 1, "flat_ratio", "must be within (0, 1)");
@@ -257,7 +323,7 @@ void validate(const ConditionConfig& c) {
 
 void check_frame(const cv::Mat& left, const cv::Mat& right, const cv::Mat& disparity, int row_begin, int row_end,
                  const StereoGeometry& geometry, const RutGeometry& rut, DisparityBand band, std::int64_t skew_ns,
-                 const ConditionConfig& c, FrameCheckScratch& s, RutMeasurement& m) noexcept {
+                 const PairSignal& signal, const ConditionConfig& c, FrameCheckScratch& s, RutMeasurement& m) noexcept {
   if (!c.enabled || left.empty() || left.size() != right.size() || left.type() != CV_8UC1 || right.type() != CV_8UC1 ||
       row_end <= row_begin || left.cols < 2 * c.block_px)
     return;
@@ -285,6 +351,11 @@ void check_frame(const cv::Mat& left, const cv::Mat& right, const cv::Mat& dispa
     // Exposure.
     const int median = std::max(stats[0].median, stats[1].median);
     if (median < c.low_light_level * kFullScale) m.conditions |= kConditionLowLight;
+    // fmax and fmin skip an unknown (NaN) camera; comparisons with NaN are false: none known raises nothing.
+    const double best_ratio = std::fmax(signal.left.texture_to_noise, signal.right.texture_to_noise);
+    const double least_noise = std::fmin(signal.left.noise, signal.right.noise);
+    if (best_ratio < c.low_light_texture_to_noise && least_noise >= c.low_light_noise)
+      m.conditions |= kConditionLowLight;
     if (std::max(stats[0].saturated, stats[1].saturated) > c.overexposed_fraction)
       m.conditions |= kConditionOverexposed;
 

@@ -402,8 +402,15 @@ void StereoMeasurer::extract(FrameWork& w, RutWorkspace& workspace) const {
   reduce_to_cross_section(measured, config_.rut, w.section);
   w.measurement = extract_rut(w.section, config_.rut, workspace);
   read_through_water(w, workspace, measured, first);
+  // The raw rows about the measured strip's (rectification moves rows by a few pixels at most here):
+  // sixteen of them per camera tell the light (ConditionConfig::low_light_texture_to_noise).
+  PairSignal signal;
+  if (config_.conditions.enabled) {
+    signal.left = image_signal(w.frame.left, strip_.row0, strip_.row0 + strip_.rows, 16, w.checks.histogram);
+    signal.right = image_signal(w.frame.right, strip_.row0, strip_.row0 + strip_.rows, 16, w.checks.histogram);
+  }
   check_frame(w.left_strip, w.right_strip, w.disparity, first, first + strip_.rows, geometry_, workspace.geometry,
-              w.diag.band, w.frame.skew_ns, config_.conditions, w.checks, w.measurement);
+              w.diag.band, w.frame.skew_ns, signal, config_.conditions, w.checks, w.measurement);
   w.geometry = workspace.geometry;
   w.measured = true;
   w.diag.rut_ms = ms_since(t0);

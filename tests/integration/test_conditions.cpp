@@ -131,6 +131,10 @@ const Case kCases[] = {
     // Exposure.
     {"dark_sand", "--depth 50 --exposure 0.05 --seed 51", 4, "LowLight", 1.0, true},
     {"dark_snow", "--depth 40 --texture snow --exposure 0.04 --seed 52", 4, "LowLight", 1.0, true},
+    // Night under auto exposure and gain: the median grey level held at the target, the texture under
+    // the noise of gain 16 (judged from the raw images' noise, not the median).
+    {"night_auto_sand", "--depth 50 --auto-exposure --light 0.015 --seed 55", 4, "LowLight", 1.0, true},
+    {"night_auto_grass", "--depth 40 --texture grass --auto-exposure --light 0.02 --seed 56", 4, "LowLight", 1.0, true},
     {"overexposed_sand", "--depth 50 --exposure 4 --seed 53", 4, "Overexposed", 1.0, true},
     {"overexposed_snow", "--depth 30 --texture snow --exposure 2.5 --seed 54", 4, "Overexposed", 1.0, true},
     // Grass blades outside the rut.

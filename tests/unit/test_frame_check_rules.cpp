@@ -4,6 +4,7 @@
 #include <cmath>
 #include <limits>
 #include <random>
+#include <vector>
 
 #include <gtest/gtest.h>
 #include <opencv2/imgproc.hpp>
@@ -50,12 +51,13 @@ struct Strips {
 };
 
 RutMeasurement check(const Strips& s, ConditionConfig config = {}, std::int64_t skew_ns = 0,
-                     const RutGeometry& rut = {}) {
+                     const RutGeometry& rut = {}, const PairSignal& signal = {}) {
   const StereoGeometry geometry(ideal_rig(), StripRoi{220, kRows});
   FrameCheckScratch scratch;
   RutMeasurement m;
   m.status = RutStatus::Ok;
-  check_frame(s.left, s.right, s.disparity, 0, kRows, geometry, rut, DisparityBand{0, 64}, skew_ns, config, scratch, m);
+  check_frame(s.left, s.right, s.disparity, 0, kRows, geometry, rut, DisparityBand{0, 64}, skew_ns, signal, config,
+              scratch, m);
   return m;
 }
 
@@ -124,6 +126,116 @@ TEST(FrameChecks, ExposureRules) {
   bright.right.colRange(0, 200).setTo(255);
   EXPECT_TRUE(check(bright).conditions & kConditionOverexposed);
   EXPECT_FALSE(check(Strips(200, 20)).conditions & kConditionOverexposed);
+}
+
+// Auto exposure and gain hold the median grey level up at night: the light is judged from the raw
+// images' texture against their noise (ImageSignal), and only where the noise is high gain's.
+TEST(FrameChecks, LowLightUnderAutoGainIsJudgedFromTheNoiseNotTheMedian) {
+  const Strips lit(120, 25);  // a median of 120 of 255: the median rule sees nothing
+  const auto signal = [](double left_ratio, double right_ratio, double noise) {
+    PairSignal p;
+    p.left.texture_to_noise = left_ratio;
+    p.right.texture_to_noise = right_ratio;
+    p.left.noise = p.right.noise = noise;
+    return p;
+  };
+  const RutMeasurement night = check(lit, {}, 0, {}, signal(0.3, 0.25, 0.06));
+  EXPECT_TRUE(night.conditions & kConditionLowLight);
+  EXPECT_EQ(night.status, RutStatus::BadExposure);
+  // Bright snow poor in texture: the same low ratio at gain 1's noise is no low light.
+  EXPECT_FALSE(check(lit, {}, 0, {}, signal(0.3, 0.25, 0.01)).conditions & kConditionLowLight);
+  // Enough texture over the same high-gain noise: matching has what it needs.
+  EXPECT_FALSE(check(lit, {}, 0, {}, signal(0.8, 0.7, 0.06)).conditions & kConditionLowLight);
+  // The better camera decides (the other may be covered: the lens checks' business).
+  EXPECT_FALSE(check(lit, {}, 0, {}, signal(0.8, 0.1, 0.06)).conditions & kConditionLowLight);
+  // One camera unknown: the other decides; both unknown: no rule.
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_TRUE(check(lit, {}, 0, {}, signal(nan, 0.3, 0.06)).conditions & kConditionLowLight);
+  EXPECT_FALSE(check(lit, {}, 0, {}, PairSignal{}).conditions & kConditionLowLight);
+  // The thresholds are the configuration's.
+  ConditionConfig c;
+  c.low_light_texture_to_noise = 0.2;
+  EXPECT_FALSE(check(lit, c, 0, {}, signal(0.3, 0.25, 0.06)).conditions & kConditionLowLight);
+  c = ConditionConfig{};
+  c.low_light_noise = 0.1;
+  EXPECT_FALSE(check(lit, c, 0, {}, signal(0.3, 0.25, 0.06)).conditions & kConditionLowLight);
+}
+
+// A raw image built from its parts: a soil texture (random, smoothed over `blur` px, deviation
+// `deviation` grey levels about 120) plus white noise of `noise` grey levels, rounded to 8 bits. The truth
+// is the construction's: the noise's deviation (with the rounding's 1/12), and the noise-free texture's
+// RMS horizontal difference over sqrt(2) times it.
+struct RawImage {
+  cv::Mat image;
+  double noise = 0, texture_to_noise = 0;
+  RawImage(double deviation, double blur, double noise_dn, unsigned seed = 11) {
+    std::mt19937 rng(seed);
+    std::normal_distribution<double> normal(0.0, 1.0);
+    cv::Mat texture(240, 640, CV_64F), noisy(240, 640, CV_64F);
+    for (auto it = texture.begin<double>(); it != texture.end<double>(); ++it) *it = normal(rng);
+    cv::GaussianBlur(texture, texture, cv::Size(0, 0), blur);
+    cv::Scalar m, sd;
+    cv::meanStdDev(texture, m, sd);
+    texture = (texture - m[0]) * (deviation / sd[0]) + 120.0;
+    for (int y = 0; y < noisy.rows; ++y)
+      for (int x = 0; x < noisy.cols; ++x) noisy.at<double>(y, x) = texture.at<double>(y, x) + noise_dn * normal(rng);
+    noisy.convertTo(image, CV_8U);
+    const cv::Mat dx = texture.colRange(1, texture.cols) - texture.colRange(0, texture.cols - 1);
+    const double sigma = std::sqrt(noise_dn * noise_dn + 1.0 / 12);
+    noise = sigma / 255.0;
+    texture_to_noise = std::sqrt(cv::mean(dx.mul(dx))[0]) / (std::sqrt(2.0) * sigma);
+  }
+};
+
+TEST(ImageSignal, NoiseAndTextureAgainstTheImagesConstruction) {
+  std::vector<std::uint32_t> histogram;
+  int checked = 0;
+  // Night (texture under the noise), dusk, and daylight on fine (sand) and coarse (mud) texture.
+  for (const double deviation : {4.0, 12.0, 40.0}) {
+    for (const double blur : {1.0, 2.5}) {
+      for (const double noise : {3.0, 10.0, 20.0}) {
+        const RawImage raw(deviation, blur, noise);
+        const ImageSignal s = image_signal(raw.image, 0, raw.image.rows, 64, histogram);
+        SCOPED_TRACE(::testing::Message()
+                     << "deviation " << deviation << " blur " << blur << " noise " << noise << ": true ratio "
+                     << raw.texture_to_noise << " estimated " << s.texture_to_noise << ", noise " << s.noise / raw.noise
+                     << " of the truth");
+        EXPECT_NEAR(s.noise / raw.noise, 1.0, raw.texture_to_noise < 1.5 ? 0.15 : 0.6);
+        // The ratio to within a fifth (and 0.1: the root of a small difference) where it matters, about the
+        // threshold, and on the right side of
+        // 0.5 wherever the truth is clearly on one side.
+        if (raw.texture_to_noise < 1.5) {
+          EXPECT_NEAR(s.texture_to_noise, raw.texture_to_noise, 0.2 * raw.texture_to_noise + 0.1);
+        }
+        if (raw.texture_to_noise < 0.4) {
+          EXPECT_LT(s.texture_to_noise, 0.5);
+        }
+        if (raw.texture_to_noise > 0.7) {
+          EXPECT_GT(s.texture_to_noise, 0.5);
+        }
+        // The same image in 16-bit pixels (a 12-bit sensor's scale) gives the same figures.
+        cv::Mat wide;
+        raw.image.convertTo(wide, CV_16U, 16.0);
+        const ImageSignal w = image_signal(wide, 0, wide.rows, 64, histogram);
+        EXPECT_NEAR(w.noise, s.noise, 0.1 * s.noise + 0.1 / 4095);
+        EXPECT_NEAR(w.texture_to_noise, s.texture_to_noise, 0.1 * s.texture_to_noise + 0.05);
+        ++checked;
+      }
+    }
+  }
+  EXPECT_EQ(checked, 18);
+}
+
+TEST(ImageSignal, UnusableInputGivesUnknownFigures) {
+  std::vector<std::uint32_t> histogram;
+  EXPECT_TRUE(std::isnan(image_signal(cv::Mat(), 0, 10, 16, histogram).texture_to_noise));
+  EXPECT_TRUE(std::isnan(image_signal(cv::Mat(20, 20, CV_8UC3), 0, 10, 16, histogram).noise));
+  EXPECT_TRUE(std::isnan(image_signal(cv::Mat(20, 4, CV_8UC1), 0, 10, 16, histogram).noise));
+  EXPECT_TRUE(std::isnan(image_signal(cv::Mat(20, 20, CV_32FC1), 0, 10, 16, histogram).noise));
+  // A flat image: no noise, no texture (no division by zero).
+  const ImageSignal flat = image_signal(cv::Mat(20, 20, CV_8UC1, cv::Scalar(90)), 0, 20, 16, histogram);
+  EXPECT_FALSE(std::isnan(flat.noise));
+  EXPECT_EQ(flat.texture_to_noise, 0.0);
 }
 
 TEST(FrameChecks, RowsShiftedAreCalibrationDrift) {

@@ -10,6 +10,7 @@
 // and five small template matches for the vertical disparity; no allocation once the scratch has grown
 // to the strip width. Not thread-safe per scratch: one per frame slot.
 #include <cstdint>
+#include <limits>
 #include <vector>
 
 #include <opencv2/core.hpp>
@@ -43,6 +44,13 @@ struct ConditionConfig {
   // when more than overexposed_fraction of the pixels are at or above saturated_level of full scale
   // (clipped pixels carry no texture, and a clipped window biases DIC).
   double low_light_level = 0.06;
+  // Low light under auto exposure and gain, which hold the median grey level up whatever the light: in
+  // the raw images (ImageSignal), neither camera's texture reaches low_light_texture_to_noise of its
+  // noise, and the noise of both is at least low_light_noise of full scale. That much noise is high gain's
+  // (at gain 1 read and shot noise stay near 1 % of full scale); a bright scene poor in texture (snow)
+  // has the low ratio without it, and is the depth uncertainty's to judge, not the light's.
+  double low_light_texture_to_noise = 0.5;
+  double low_light_noise = 0.03;
   double saturated_level = 0.98;
   double overexposed_fraction = 0.15;
   // Standing water or a flat textureless patch in the rut: a run of blocks inside the rut opening where
@@ -103,6 +111,27 @@ void validate(const ConditionConfig& config);
 // pixels, a few dozen offsets) that need no FFT. `result` keeps its buffer from one call to the next.
 void normalized_correlation(const cv::Mat& area, const cv::Mat& templ, cv::Mat& result);
 
+// What a camera's image holds for matching against its own noise, from the raw image (the rectified
+// strips' resampling correlates the noise and hides it from a neighbour statistic).
+struct ImageSignal {
+  double noise = std::numeric_limits<double>::quiet_NaN();    // deviation, fraction of full scale
+  double texture = std::numeric_limits<double>::quiet_NaN();  // RMS horizontal neighbour difference, same
+  // The texture without the noise's share, over the noise's share of the same difference:
+  // sqrt(texture^2 - 2 noise^2) / (sqrt(2) noise); NaN when unknown.
+  double texture_to_noise = std::numeric_limits<double>::quiet_NaN();
+};
+
+// raw: a camera's unrectified image (CV_8UC1 or CV_16UC1); rows [row_begin, row_end) are read, at most
+// max_rows of them evenly spaced. Noise by Immerkaer's Laplacian, taken as the median of its absolute
+// value (robust to texture edges, unlike the mean). Never throws; NaN figures on unusable input.
+ImageSignal image_signal(const cv::Mat& raw, int row_begin, int row_end, int max_rows,
+                         std::vector<std::uint32_t>& histogram) noexcept;
+
+// Both cameras' ImageSignal of one pair (unknown, NaN, where the raw images were not looked at).
+struct PairSignal {
+  ImageSignal left, right;
+};
+
 // Reused between frames; contents unspecified.
 struct FrameCheckScratch {
   std::vector<double> sum[2], grad2[2];
@@ -111,6 +140,7 @@ struct FrameCheckScratch {
   std::vector<double> column_sum, column_grad2;  // the right strip's, prefix sums over columns
   std::vector<int> matched, sampled;
   std::vector<float> values;
+  std::vector<std::uint32_t> histogram;  // image_signal's
   cv::Mat result;
 };
 
@@ -121,9 +151,11 @@ struct FrameCheckScratch {
 // band: the disparity band the frame was matched in (where to look for the right strip's features
 // when no disparity was found).
 // skew_ns: the pair's StereoFrame::skew_ns (0: synchronised or unknown).
+// signal: the raw images' texture and noise (ConditionConfig::low_light_texture_to_noise; unknown skips
+// that rule).
 void check_frame(const cv::Mat& left_strip, const cv::Mat& right_strip, const cv::Mat& disparity, int row_begin,
                  int row_end, const StereoGeometry& geometry, const RutGeometry& rut, DisparityBand band,
-                 std::int64_t skew_ns, const ConditionConfig& config, FrameCheckScratch& scratch,
-                 RutMeasurement& m) noexcept;
+                 std::int64_t skew_ns, const PairSignal& signal, const ConditionConfig& config,
+                 FrameCheckScratch& scratch, RutMeasurement& m) noexcept;
 
 }  // namespace rutd
