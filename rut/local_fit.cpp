@@ -179,8 +179,12 @@ double refine_max(const std::vector<double>& h_raw, const std::vector<double>& h
   while (b + 1 <= hi && (inside(b + 1) || (b + 1) - k <= min_half)) ++b;
 
   QuadSums q;
+  int first = b + 1, last = a - 1;  // the samples' extent: the region may run on across a gap
   for (int j = a; j <= b; ++j) {
-    if (!std::isnan(h_raw[j])) q.add(double(j - k), h_raw[j]);
+    if (std::isnan(h_raw[j])) continue;
+    q.add(double(j - k), h_raw[j]);
+    first = std::min(first, j);
+    last = std::max(last, j);
   }
   Eigen::Vector3d coef;
   Eigen::Matrix3d inv;
@@ -189,7 +193,9 @@ double refine_max(const std::vector<double>& h_raw, const std::vector<double>& h
   const double var = dof > 0 ? q.rss(coef) / dof : 0.0;
   const double curvature_sigma = std::sqrt(std::max(0.0, var * inv(2, 2)));
   if (coef[2] < 0.0 && -coef[2] > min_t * curvature_sigma) {
-    const double t = std::clamp(-coef[1] / (2.0 * coef[2]), double(a - k), double(b - k));
+    // The vertex within the samples: carried into a gap beyond them, the parabola is no measurement (a
+    // wall's last bins curving off at a gap's edge once put the bottom 54 mm below anything seen).
+    const double t = std::clamp(-coef[1] / (2.0 * coef[2]), double(first - k), double(last - k));
     return coef[0] + coef[1] * t + coef[2] * t * t;
   }
   return q.y[0] / q.s[0];

@@ -41,8 +41,8 @@ bool fit_line_robust(const double* x, const double* z, int n, std::vector<double
 // h_fit[k] (a bin without a smoothed value: its raw sample within 2 delta; gaps do not end the run;
 // at least +-min_half bins, within [lo, hi]); a parabola is fitted to the raw samples there.
 // A concave parabola whose curvature exceeds min_t times its standard error gives its vertex (clamped
-// to the region); otherwise the top is flat within the noise and the mean of the region is the
-// estimate. min_t = 0 trusts any concave fit (tops known to be rounded).
+// to the samples' extent within the region); otherwise the top is flat within the noise and the mean of the region is
+// the estimate. min_t = 0 trusts any concave fit (tops known to be rounded).
 double refine_max(const std::vector<double>& h_raw, const std::vector<double>& h_fit, int k, double delta, int min_half,
                   int lo, int hi, double min_t);
 

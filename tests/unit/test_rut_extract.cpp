@@ -217,6 +217,38 @@ TEST(ExtractRut, HoleInALevelBottomHidesNothing) {
   EXPECT_GT(ws.geometry.unseen_depth_mm, 1.0);
 }
 
+// A flat bottom whose last samples before a gap curve away (a DIC window straddling the bottom's
+// edge), then nothing up the far wall. The parabola through that hook has its vertex in the gap, where
+// nothing was seen: the depth must stay with what the samples show, the rest being the gap's
+// uncertainty. Carried into the gap, such a hook once put the bottom 54 mm below anything seen.
+TEST(ExtractRut, DeepestPointIsNeverPlacedBeyondTheSamples) {
+  RutShape s;
+  s.depth = 40.0;
+  s.top = 300.0;
+  s.bottom = 200.0;
+  const View v;
+  CrossSection c = make_section(s, v, kX0, kBins, 1.0, 0.1, 9);
+  const double hook[] = {0.3, 0.8, 1.5, 2.5};  // mm deeper, at u = 17..20
+  double deepest_seen = 0.0;
+  int hidden = 0;
+  for (int i = 0; i < kBins; ++i) {
+    const double x = kX0 + i;
+    if (x >= 17 && x <= 20) c.z_mm[i] += hook[static_cast<int>(x) - 17];
+    if (x > 20 && x < 131) {
+      c.z_mm[i] = kNaN;
+      ++hidden;
+    } else {
+      deepest_seen = std::max(deepest_seen, c.z_mm[i] - v.ground_z);
+    }
+  }
+  ASSERT_EQ(hidden, 110);
+  RutWorkspace ws;
+  const RutMeasurement m = extract_rut(c, RutConfig{}, ws);
+  ASSERT_TRUE(ws.geometry.has_rut) << to_string(m.status);
+  EXPECT_LE(m.depth_mm, deepest_seen + 0.3);
+  EXPECT_NE(m.status, RutStatus::Ok) << m.depth_mm;  // the far wall unseen: it could go deeper
+}
+
 TEST(ExtractRut, FlatGroundIsNoRut) {
   RutShape s;
   s.depth = 0.0;
