@@ -117,7 +117,8 @@ Waterline find_waterline(const CrossSection& section, const std::vector<double>&
       const double above = 0.5 * (window_mean(ws.log_brightness, l.bin - w + 1, l.bin, need) +
                                   window_mean(ws.log_brightness, r.bin + 1, r.bin + w, need));
       const double submerged = window_mean(ws.log_brightness, l.bin + 1, r.bin, need);
-      if (!((submerged - above) * (l.step > 0 ? 1.0 : -1.0) >= 0.5 * threshold)) continue;
+      const double sense = l.step > 0 ? 1.0 : -1.0;
+      if (!((submerged - above) * sense >= std::max(0.5 * threshold, config.min_submerged_step))) continue;
       const double strength = std::min(std::abs(l.step), std::abs(r.step));
       if (strength <= best) continue;
       best = strength;
@@ -131,6 +132,7 @@ Waterline find_waterline(const CrossSection& section, const std::vector<double>&
       out.right_x_mm = x_of(r.bin) + 0.5 * dx;
       out.left_step = l.step;
       out.right_step = r.step;
+      out.submerged_step = submerged - above;
     }
   }
   return out;

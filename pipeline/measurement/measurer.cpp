@@ -345,8 +345,30 @@ void StereoMeasurer::read_through_water(FrameWork& w, RutWorkspace& workspace, c
     m.status = RutStatus::BottomNotSeen;
     return;
   }
-  const Waterline line = find_waterline(w.section, w.bin_brightness, workspace.geometry, c, w.water);
+  Waterline line = find_waterline(w.section, w.bin_brightness, workspace.geometry, c, w.water);
+  // Short of a waterline, a candidate (WaterlineConfig::candidate_step_over_ground): darkening below on
+  // both walls and over the whole span between them by at least wetting's least (min_step), as wet soil
+  // or the water's body colour darkens (a lid that brightens is the lid check's).
+  bool candidate = false;
+  if (!line.found && c.candidate_step_over_ground > 0.0) {
+    WaterlineConfig relaxed = c;
+    relaxed.step_over_ground = c.candidate_step_over_ground;
+    relaxed.min_submerged_step = std::max(c.min_submerged_step, c.min_step);  // all of it wet
+    const Waterline weak = find_waterline(w.section, w.bin_brightness, workspace.geometry, relaxed, w.water);
+    // ... with each step's window above it on its wall, inside the opening: at the rim the window
+    // holds the crest, which turns from the light (a rut in shade is darker all the way down).
+    const RutGeometry& g = workspace.geometry;
+    if (weak.found && weak.left_step < 0.0 && weak.right_step < 0.0 &&
+        weak.left_x_mm - g.left_x_mm >= c.step_window_mm && g.right_x_mm - weak.right_x_mm >= c.step_window_mm) {
+      line = weak;
+      candidate = true;
+    }
+  }
   if (!line.found) return;
+  if (candidate) {
+    weigh_candidate_waterline(w, workspace, line, y_mm);
+    return;
+  }
   const auto mark = [&](RutGeometry& g) {
     g.has_water = true;
     g.water_level_mm = line.level_mm;
@@ -388,6 +410,35 @@ void StereoMeasurer::read_through_water(FrameWork& w, RutWorkspace& workspace, c
   mark(workspace.geometry);
   workspace.geometry.refracted = true;
   std::swap(w.section, w.refracted);
+}
+
+// A candidate waterline: the frame is read either dry or through water at that level, and the evidence
+// does not decide. The two readings are two hypotheses, so their half difference is a standard
+// uncertainty of the depth (a two-point distribution's): where it takes the depth's uncertainty over
+// max_depth_uncertainty_mm the frame is refused as UNCERTAIN with the Water condition (the dry depth
+// kept); where the readings agree that closely, the dry reading stands unflagged.
+void StereoMeasurer::weigh_candidate_waterline(FrameWork& w, RutWorkspace& workspace, const Waterline& line,
+                                               double y_mm) const {
+  RutMeasurement& m = w.measurement;
+  const WaterlineConfig& c = config_.water;
+  if (m.status != RutStatus::Ok || m.depth_mm - line.level_mm < c.min_seen_below_mm) return;
+  const RutGeometry dry = workspace.geometry;
+  refract_section(w.section, dry, line.level_mm, c.refractive_index, geometry_.baseline_mm(), y_mm, w.refracted,
+                  w.water);
+  const RutMeasurement wet = extract_rut(w.refracted, config_.rut, workspace);
+  workspace.geometry = dry;
+  if (!depth_found(wet.status)) return;
+  const double u = std::hypot(m.depth_uncertainty_mm, 0.5 * (wet.depth_mm - m.depth_mm));
+  if (!(u > config_.rut.max_depth_uncertainty_mm)) return;
+  m.depth_uncertainty_mm = u;
+  m.status = RutStatus::Uncertain;
+  m.conditions |= kConditionWater | kConditionUncertain;
+  const double limit = config_.rut.max_depth_uncertainty_mm;
+  m.quality = limit > 0.0 ? std::clamp(1.0 - u / (2.0 * limit), 0.0, 1.0) : 0.0;
+  workspace.geometry.has_water = true;
+  workspace.geometry.water_level_mm = line.level_mm;
+  workspace.geometry.waterline_left_x_mm = line.left_x_mm;
+  workspace.geometry.waterline_right_x_mm = line.right_x_mm;
 }
 
 void StereoMeasurer::extract(FrameWork& w, RutWorkspace& workspace) const {

@@ -114,6 +114,18 @@ const Case kCases[] = {
      "--height 322 --roll -1.8 --seed 1004 --water-level 21.3 --debris 0.75 --debris-kind litter "
      "--water-attenuation 0.012",
      4, "Water", 0.75, true},
+    // Clear water whose wet walls darken less, against a blotchy mud's or grass's own texture, than a
+    // waterline asks (2-3.8 times the ground's spread, against 4): read both ways, the frames whose two
+    // readings differ beyond the depth's uncertainty are refused with Water (were published OK 1.5-2.8
+    // mm shallow, the bottom read through the surface as if dry).
+    {"clear_faint_waterline_mud",
+     "--texture mud --depth 40.8 --width 160 --bottom-width 49 --pile-left 12.7 --pile-right 6.5 --baseline 90 "
+     "--height 374 --roll 0.1 --seed 1033 --water-level 11.5 --water-attenuation 0.0026 --water-colour 0.10",
+     4, "Water", 0.5, true},
+    {"clear_faint_waterline_grass",
+     "--texture grass --depth 22.0 --width 157 --bottom-width 68 --pile-left 10.4 --pile-right 7.4 --baseline 47 "
+     "--height 313 --roll 2.5 --seed 1017 --water-level 6.9 --water-attenuation 0.0058 --water-colour 0.10",
+     4, "Water", 0.5, true},
     // Opaque splash on one lens, 10-50 % of the strip, and a fully covered lens: flagged on every frame,
     // published or not (the splash is there whatever the depth).
     {"splash10_left_sand", "--depth 50 --splash 0.1 --splash-camera left --splash-centre 0.45 --seed 41", 6,

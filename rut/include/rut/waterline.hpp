@@ -43,6 +43,17 @@ struct WaterlineConfig {
   // (else a lid or opaque water: the bottom not seen; a leaf lid 1.3 mm below a waterline located to a
   // few millimetres passed for 1.3 mm of water seen through), mm.
   double min_seen_below_mm = 1.0;
+  // The submerged span (between the two steps) must differ from the walls just above in the steps'
+  // sense by at least half the step threshold, and by at least this (log).
+  double min_submerged_step = 0.0;
+  // A pair of darkening steps that passes every test above with candidate_step_over_ground in place of
+  // step_over_ground, the whole span between them darker than the walls above by at least min_step
+  // (all of it wet), is a candidate waterline: clear water whose wet walls darken less, against the
+  // soil's own texture, than the threshold asks (rendered clear water: 2-3.8 times the ground's spread,
+  // against 4; its submerged span 0.6-1.0 darker) or a coincidence of the texture (shading under a rim
+  // darkens a band, not the span: 0.1-0.17). The frame is then read both ways and refused where the
+  // two readings differ by more than its depth uncertainty allows (StereoMeasurer). 0: off.
+  double candidate_step_over_ground = 2.0;
 
   // A floating lid (foam, leaves, litter on the water) where no pair of steps marks the waterline
   // (foam on snow is as bright as the snow on one wall): the profile's deepest span is level, no
@@ -85,7 +96,8 @@ struct Waterline {
   double right_x_mm = 0.0;
   double left_step = 0.0;  // log brightness ratio (below / above) at each
   double right_step = 0.0;
-  double ground_spread = 0.0;  // robust spread of the step statistic over the ground
+  double submerged_step = 0.0;  // mean log brightness between the two, minus on the walls just above
+  double ground_spread = 0.0;   // robust spread of the step statistic over the ground
 };
 
 // Scratch reused between frames; contents unspecified.

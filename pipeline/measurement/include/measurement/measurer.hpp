@@ -172,6 +172,7 @@ class StereoMeasurer {
   DisparityBand estimate_band(FrameWork& w, MatchContext& context) const;
   DicConfig strip_dic_config() const;
   void read_through_water(FrameWork& w, RutWorkspace& workspace, const cv::Mat& measured, int first) const;
+  void weigh_candidate_waterline(FrameWork& w, RutWorkspace& workspace, const Waterline& line, double y_mm) const;
   // The engine is to rectify this frame on its device (MeasurerConfig::rectify_on_device).
   bool device_rectifies(const StereoFrame& frame) const;
 
