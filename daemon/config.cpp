@@ -317,6 +317,7 @@ void read_conditions(Section s, ConditionConfig& c) {
       .get<double>("obstruction_ratio", c.obstruction_ratio, in_range(0.01, 0.99))
       .get<double>("min_texture", c.min_texture, in_range(0.0, 255.0))
       .get<double>("obstruction_min_fraction", c.obstruction_min_fraction, in_range(0.001, 1.0))
+      .get<double>("veil_brightening", c.veil_brightening, in_range(0.0, 10.0))
       .get<double>("low_light_level", c.low_light_level, in_range(0.0, 0.99))
       .get<double>("low_light_texture_to_noise", c.low_light_texture_to_noise, in_range(0.0, 100.0))
       .get<double>("low_light_noise", c.low_light_noise, in_range(0.001, 0.99))

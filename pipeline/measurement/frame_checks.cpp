@@ -301,6 +301,7 @@ void validate(const ConditionConfig& c) {
   require(c.min_texture >= 0, "min_texture", "must be >= 0");
   require(c.obstruction_min_fraction > 0 && c.obstruction_min_fraction <= 1, "obstruction_min_fraction",
           "must be within (0, 1]");
+  require(c.veil_brightening >= 0, "veil_brightening", "must be >= 0");
   require(c.low_light_level >= 0 && c.low_light_level < 1, "low_light_level", "must be within [0, 1)");
   require(c.low_light_texture_to_noise >= 0, "low_light_texture_to_noise", "must be >= 0");
   require(c.low_light_noise > 0 && c.low_light_noise < 1, "low_light_noise", "must be within (0, 1)");
@@ -392,12 +393,22 @@ void check_frame(const cv::Mat& left, const cv::Mat& right, const cv::Mat& dispa
       ++compared;
       // A block that matched saw the same texture through both lenses: neither is obstructed there
       // (what differs then is the scene: a surface lit or seen differently from the two viewpoints).
-      if (2 * s.matched[static_cast<std::size_t>(b)] >= s.sampled[static_cast<std::size_t>(b)]) continue;
       const auto at = [](const std::vector<double>& v, int i) { return v[static_cast<std::size_t>(i)]; };
       const double tl = s.texture[0][static_cast<std::size_t>(b)],
                    tr = std::sqrt((at(s.column_grad2, rx0 + c.block_px) - at(s.column_grad2, rx0)) / window_pixels);
       const double bl = s.brightness[0][static_cast<std::size_t>(b)],
                    br = (at(s.column_sum, rx0 + c.block_px) - at(s.column_sum, rx0)) / window_pixels;
+      // A veil (frost, snow, a film lit from the side) lets the ground through: DIC may match it, yet the
+      // camera behind it sees the ground brighter and with a fraction of its texture.
+      const auto veiled = [&](double t_self, double t_other, double b_self, double b_other) {
+        return t_other >= c.min_texture && t_self < c.obstruction_ratio * t_other &&
+               b_self >= (1.0 + c.veil_brightening) * b_other;
+      };
+      if (2 * s.matched[static_cast<std::size_t>(b)] >= s.sampled[static_cast<std::size_t>(b)]) {
+        left_blocked += veiled(tl, tr, bl, br);
+        right_blocked += veiled(tr, tl, br, bl);
+        continue;
+      }
       // The texture test only for the dimmer view: the other camera's own blob edge (a steep dark-to-lit
       // step inside its block) must not make this camera's ground look flat by comparison.
       const auto blocked = [&](double t_self, double t_other, double b_self, double b_other) {

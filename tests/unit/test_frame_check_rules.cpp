@@ -117,6 +117,42 @@ TEST(FrameChecks, DarkBlobOnOneLensUnmatchedIsObstruction) {
   EXPECT_EQ(check(shadow).conditions & kLens, 0);
 }
 
+// Frost or snow on a window lets the ground through: DIC matches every block, yet the camera behind it
+// sees the ground brighter and with a fraction of its contrast (a veil: (1 - a) ground + a light).
+TEST(FrameChecks, MatchedBehindAVeilIsStillAnObstructedLens) {
+  const auto veil = [](cv::Mat& view, int x0, int x1, double a, double light) {
+    cv::Mat part = view.colRange(x0, x1);
+    part.convertTo(part, CV_8U, 1.0 - a, a * light);
+  };
+  Strips left_veiled(110, 25);
+  veil(left_veiled.left, 200, 400, 0.7, 230);  // disparity stays valid: DIC matched through it
+  const RutMeasurement l = check(left_veiled);
+  EXPECT_TRUE(l.conditions & kConditionLeftObstructed) << int(l.conditions);
+  EXPECT_FALSE(l.conditions & kConditionRightObstructed);
+  EXPECT_EQ(l.status, RutStatus::LensObstructed);
+  EXPECT_GT(l.obstructed_left, 0.2);
+
+  Strips right_veiled(110, 25);
+  veil(right_veiled.right, 300, 420, 0.7, 230);
+  const RutMeasurement r = check(right_veiled);
+  EXPECT_TRUE(r.conditions & kConditionRightObstructed) << int(r.conditions);
+  EXPECT_FALSE(r.conditions & kConditionLeftObstructed);
+
+  // Two clean lenses: the right camera 5 % brighter with 10 % less contrast (gain and response differ).
+  Strips unequal(110, 25);
+  unequal.right.convertTo(unequal.right, CV_8U, 0.9, 0.15 * 110);
+  EXPECT_EQ(check(unequal).conditions & kLens, 0);
+  // A thin veil (contrast halved, above obstruction_ratio) is left to the depth's uncertainty.
+  Strips thin(110, 25);
+  veil(thin.left, 200, 400, 0.5, 230);
+  EXPECT_EQ(check(thin).conditions & kLens, 0);
+  // The same contrast loss without the added light (a shadow on the ground only this camera sees is
+  // no optics of the window): not a veil.
+  Strips darker(110, 25);
+  veil(darker.left, 200, 400, 0.7, 110);
+  EXPECT_FALSE(check(darker).conditions & kConditionLeftObstructed);
+}
+
 TEST(FrameChecks, ExposureRules) {
   const RutMeasurement dark = check(Strips(8, 2));
   EXPECT_TRUE(dark.conditions & kConditionLowLight);

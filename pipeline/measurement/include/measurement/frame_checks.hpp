@@ -36,9 +36,14 @@ struct ConditionConfig {
   // min_texture (a blob is out of focus: flat; the edge of a blob in the other camera is a steep step,
   // not texture this camera misses). Flagged when at least obstruction_min_fraction of the compared blocks are
   // obstructed.
+  // A block DIC matched can still be veiled (frost, snow, a film on the window, lit from the side): the
+  // ground shows through, brighter by at least veil_brightening (a share) and with less than
+  // obstruction_ratio of the texture the other camera sees there (two clean lenses see the same ground
+  // within a few percent of each other in both). It counts as obstructed with the others.
   double obstruction_ratio = 0.4;
   double min_texture = 3.0;  // about 2x the gradient that read noise alone gives (1.5 grey levels: 2.1)
   double obstruction_min_fraction = 0.05;
+  double veil_brightening = 0.1;
   // Exposure, over both strips: low light when the median grey level is below low_light_level of full
   // scale (the texture is then a few grey levels, drowned by read and quantisation noise); overexposed
   // when more than overexposed_fraction of the pixels are at or above saturated_level of full scale
