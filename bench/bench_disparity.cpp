@@ -1,12 +1,13 @@
 // Per-strip cost of the CPU disparity engines and of the DIC refinement, on textured strips of
 // 640x48 and 1280x64 px with a 64 px band (the sizes and band of a narrow-band rut strip), and of the
-// rectification of a rendered pair (strip and full frame).
+// rectification of a rendered pair (strip and full frame), and of the light check's look at its raw images.
 #include <benchmark/benchmark.h>
 #include <opencv2/imgproc.hpp>
 
 #include "engines/disparity_engine.hpp"
 #include "engines/engine_factory.hpp"
 #include "geometry/stereo_geometry.hpp"
+#include "measurement/frame_checks.hpp"
 #include "refinement/dic_refine.hpp"
 #include "synthetic/synthetic_renderer.hpp"
 
@@ -119,12 +120,34 @@ void BM_Rectify(benchmark::State& state) {
   }
 }
 
+// The light check's look at both raw images of a rendered pair (measurement/frame_checks.hpp,
+// image_signal): 16 rows each about the strip, as the measurer reads them on every frame.
+void BM_ImageSignal(benchmark::State& state) {
+  rutd::SyntheticRendererConfig config;
+  config.rig.image_size = cv::Size(static_cast<int>(state.range(0)), static_cast<int>(state.range(1)));
+  const rutd::SyntheticRenderer renderer(config);
+  rutd::StereoFrame frame;
+  renderer.render(0, frame);
+  const int rows = static_cast<int>(state.range(2)), row0 = (config.rig.image_size.height - rows) / 2;
+  std::vector<std::uint32_t> histogram;
+  for (auto _ : state) {
+    const rutd::ImageSignal l = rutd::image_signal(frame.left, row0, row0 + rows, 16, histogram);
+    const rutd::ImageSignal r = rutd::image_signal(frame.right, row0, row0 + rows, 16, histogram);
+    benchmark::DoNotOptimize(l.texture_to_noise + r.texture_to_noise);
+  }
+}
+
 BENCHMARK(BM_Rectify)
     ->Args({640, 480, 62})
     ->Args({640, 480, 480})
     ->Args({1280, 1024, 78})
     ->ArgNames({"width", "height", "rows"})
     ->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_ImageSignal)
+    ->Args({640, 480, 48})
+    ->Args({1280, 1024, 64})
+    ->ArgNames({"width", "height", "rows"})
+    ->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_Engine)->Apply(engine_args)->Unit(benchmark::kMillisecond);
 // CPU time: of all threads (the refinement splits rows across OpenCV's workers).
 BENCHMARK(BM_Dic)->Apply(dic_args)->MeasureProcessCPUTime()->UseRealTime()->Unit(benchmark::kMillisecond);

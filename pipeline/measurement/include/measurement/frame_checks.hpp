@@ -127,8 +127,8 @@ struct ImageSignal {
 };
 
 // raw: a camera's unrectified image (CV_8UC1 or CV_16UC1); rows [row_begin, row_end) are read, at most
-// max_rows of them evenly spaced. Noise by Immerkaer's Laplacian, taken as the median of its absolute
-// value (robust to texture edges, unlike the mean). Never throws; NaN figures on unusable input.
+// max_rows of them evenly spaced, every second column. Noise by Immerkaer's Laplacian, taken as the median of its
+// absolute value (robust to texture edges, unlike the mean). Never throws; NaN figures on unusable input.
 ImageSignal image_signal(const cv::Mat& raw, int row_begin, int row_end, int max_rows,
                          std::vector<std::uint32_t>& histogram) noexcept;
 
