@@ -453,8 +453,9 @@ void StereoMeasurer::extract(FrameWork& w, RutWorkspace& workspace) const {
   reduce_to_cross_section(measured, config_.rut, w.section);
   w.measurement = extract_rut(w.section, config_.rut, workspace);
   read_through_water(w, workspace, measured, first);
-  // The raw rows about the measured strip's (rectification moves rows by a few pixels at most here):
-  // sixteen of them per camera tell the light (ConditionConfig::low_light_texture_to_noise).
+  // The raw rows numbered as the measured strip's (near them: rectification moves rows little about the
+  // principal row, and the light is the same a few rows away): sixteen of them per camera tell the light
+  // (ConditionConfig::low_light_texture_to_noise).
   PairSignal signal;
   if (config_.conditions.enabled) {
     signal.left = image_signal(w.frame.left, strip_.row0, strip_.row0 + strip_.rows, 16, w.checks.histogram);
