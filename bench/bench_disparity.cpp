@@ -102,17 +102,26 @@ void dic_args(benchmark::internal::Benchmark* b) {
   b->ArgNames({"step", "row_step", "width", "rows", "margin", "columns"});
 }
 
+// The default synthetic pair at the benchmark's size (its first two arguments), and its calibration.
+struct RenderedPair {
+  rutd::StereoFrame frame;
+  rutd::StereoCalibration calibration;
+  explicit RenderedPair(const benchmark::State& state) {
+    rutd::SyntheticRendererConfig config;
+    config.rig.image_size = cv::Size(static_cast<int>(state.range(0)), static_cast<int>(state.range(1)));
+    const rutd::SyntheticRenderer renderer(config);
+    renderer.render(0, frame);
+    calibration = renderer.calibration();
+  }
+};
+
 // Both raw images of a rendered 8-bit pair to rectified strips: `rows` centred rows (the default strip
 // with its matching margin is 62 rows of 480) or the full frame.
 void BM_Rectify(benchmark::State& state) {
-  rutd::SyntheticRendererConfig config;
-  config.rig.image_size = cv::Size(static_cast<int>(state.range(0)), static_cast<int>(state.range(1)));
-  const rutd::SyntheticRenderer renderer(config);
-  rutd::StereoFrame frame;
-  renderer.render(0, frame);
+  const RenderedPair pair(state);
+  const rutd::StereoFrame& frame = pair.frame;
   const int rows = static_cast<int>(state.range(2));
-  const rutd::StereoGeometry geometry(renderer.calibration(),
-                                      rutd::StripRoi{(config.rig.image_size.height - rows) / 2, rows});
+  const rutd::StereoGeometry geometry(pair.calibration, rutd::StripRoi{(frame.left.rows - rows) / 2, rows});
   cv::Mat left, right;
   for (auto _ : state) {
     geometry.rectify(frame.left, frame.right, left, right);
@@ -123,12 +132,9 @@ void BM_Rectify(benchmark::State& state) {
 // The light check's look at both raw images of a rendered pair (measurement/frame_checks.hpp,
 // image_signal): 16 rows each about the strip, as the measurer reads them on every frame.
 void BM_ImageSignal(benchmark::State& state) {
-  rutd::SyntheticRendererConfig config;
-  config.rig.image_size = cv::Size(static_cast<int>(state.range(0)), static_cast<int>(state.range(1)));
-  const rutd::SyntheticRenderer renderer(config);
-  rutd::StereoFrame frame;
-  renderer.render(0, frame);
-  const int rows = static_cast<int>(state.range(2)), row0 = (config.rig.image_size.height - rows) / 2;
+  const RenderedPair pair(state);
+  const rutd::StereoFrame& frame = pair.frame;
+  const int rows = static_cast<int>(state.range(2)), row0 = (frame.left.rows - rows) / 2;
   std::vector<std::uint32_t> histogram;
   for (auto _ : state) {
     const rutd::ImageSignal l = rutd::image_signal(frame.left, row0, row0 + rows, 16, histogram);
