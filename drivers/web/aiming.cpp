@@ -5,6 +5,8 @@
 
 #include <opencv2/imgproc.hpp>
 
+#include "core/stereo_frame.hpp"
+
 namespace rutd {
 
 double focus_measure(const cv::Mat& grey8, int row0, int rows) {
@@ -28,12 +30,9 @@ CameraAiming exposure_figures(const cv::Mat& raw) {
   CV_Assert(raw.type() == CV_8UC1 || raw.type() == CV_16UC1);
   CameraAiming a;
   if (raw.empty()) return a;
-  int top = 255;
-  if (raw.depth() == CV_16U) {
-    double hi = 0;
-    cv::minMaxLoc(raw, nullptr, &hi);
-    while (top < hi && top < 65535) top = top * 2 + 1;
-  }
+  double hi = 0;
+  if (raw.depth() == CV_16U) cv::minMaxLoc(raw, nullptr, &hi);
+  const int top = sensor_full_scale(raw.depth(), hi);
   a.top = top;
   const double dark = 0.02 * top;
   std::uint64_t saturated = 0, darkn = 0;

@@ -11,6 +11,8 @@
 
 #include <opencv2/imgproc.hpp>
 
+#include "core/stereo_frame.hpp"
+
 namespace rutd {
 
 void normalized_correlation(const cv::Mat& area, const cv::Mat& templ, cv::Mat& result) {
@@ -241,19 +243,15 @@ ImageSignal image_signal(const cv::Mat& raw, int row_begin, int row_end, int max
   row_end = std::clamp(row_end, row_begin, raw.rows - 1);
   if (row_end - row_begin < 1) return out;
   const int step = std::max(1, (row_end - row_begin) / max_rows);
-  // Full scale: 255 for 8-bit pixels; for 16-bit ones the sensor's (the smallest 2^k - 1 at or above the
-  // brightest pixel read: 4095 for a 12-bit sensor), as the exposure figures take it.
-  double full_scale = 255.0;
+  // Full scale: the sensor's (core/stereo_frame.hpp), from the brightest pixel of the rows read.
+  int brightest = 0;
   if (raw.depth() == CV_16U) {
-    int brightest = 0;
     for (int y = row_begin; y < row_end; y += step) {
       const std::uint16_t* p = raw.ptr<std::uint16_t>(y);
       for (int x = 0; x < raw.cols; ++x) brightest = std::max<int>(brightest, p[x]);
     }
-    int top = 255;
-    while (top < brightest && top < 65535) top = top * 2 + 1;
-    full_scale = top;
   }
+  const double full_scale = sensor_full_scale(raw.depth(), brightest);
   // |Laplacian| into a histogram of quarter grey levels of an 8-bit scale (4096 bins: up to 4 full
   // scales); its median gives the noise. Integer arithmetic in the loop: 8-bit values are in quarters
   // by a shift, 16-bit ones by one multiplication.

@@ -26,4 +26,14 @@ struct StereoFrame {
   cv::Mat right;
 };
 
+// The sensor's full scale for an image whose brightest pixel is `brightest`: 255 for 8-bit pixels; for
+// 16-bit ones the smallest 2^k - 1 at or above it (4095 for a 12-bit sensor, whose values fill 16-bit
+// pixels only up to there). Exposure figures and noise are fractions of this.
+inline int sensor_full_scale(int depth, double brightest) {
+  int top = 255;
+  if (depth == CV_16U)
+    while (top < brightest && top < 65535) top = top * 2 + 1;
+  return top;
+}
+
 }  // namespace rutd
