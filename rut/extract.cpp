@@ -454,7 +454,7 @@ RutMeasurement extract_rut(const CrossSection& section, const RutConfig& params,
   const double u_gap = unseen / std::sqrt(3.0);
   out.depth_uncertainty_mm = std::sqrt(wander * wander + u_line * u_line + u_gap * u_gap);
   const double limit = params.max_depth_uncertainty_mm;
-  const double quality = limit > 0.0 ? std::clamp(1.0 - out.depth_uncertainty_mm / (2.0 * limit), 0.0, 1.0) : 0.0;
+  const double quality = depth_quality(out.depth_uncertainty_mm, limit);
 
   if (o.left_edge || o.right_edge) {
     out.status = RutStatus::RutAtEdge;
@@ -474,6 +474,10 @@ RutMeasurement extract_rut(const CrossSection& section, const RutConfig& params,
     }
   }
   return out;
+}
+
+double depth_quality(double u_mm, double limit_mm) {
+  return limit_mm > 0.0 ? std::clamp(1.0 - u_mm / (2.0 * limit_mm), 0.0, 1.0) : 0.0;
 }
 
 }  // namespace rutd

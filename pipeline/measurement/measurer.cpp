@@ -294,6 +294,15 @@ bool depth_found(RutStatus status) {
   return status == RutStatus::Ok || status == RutStatus::Uncertain || status == RutStatus::Vegetation;
 }
 
+// Marks standing water on the geometry the sinks see: its surface level_mm below the ground line,
+// meeting the walls (or a lid's ends) at left_x_mm and right_x_mm.
+void mark_water(RutGeometry& g, double level_mm, double left_x_mm, double right_x_mm) {
+  g.has_water = true;
+  g.water_level_mm = level_mm;
+  g.waterline_left_x_mm = left_x_mm;
+  g.waterline_right_x_mm = right_x_mm;
+}
+
 // Mean grey level of the left strip's pixels that reduce_to_cross_section averaged into each bin (the
 // same rule: the nearest bin to the point's X), NaN where none; returns the mean Y of those points, mm.
 double bin_brightness(const cv::Mat& xyz, const cv::Mat& left, int first, const CrossSection& section,
@@ -338,10 +347,7 @@ void StereoMeasurer::read_through_water(FrameWork& w, RutWorkspace& workspace, c
   const LevelSpan lid = find_level_span(w.section, w.bin_brightness, workspace.geometry, c, w.water);
   if (lid.found) {
     m.conditions |= kConditionWater;
-    workspace.geometry.has_water = true;
-    workspace.geometry.water_level_mm = lid.level_mm;
-    workspace.geometry.waterline_left_x_mm = lid.left_x_mm;
-    workspace.geometry.waterline_right_x_mm = lid.right_x_mm;
+    mark_water(workspace.geometry, lid.level_mm, lid.left_x_mm, lid.right_x_mm);
     m.status = RutStatus::BottomNotSeen;
     return;
   }
@@ -369,12 +375,7 @@ void StereoMeasurer::read_through_water(FrameWork& w, RutWorkspace& workspace, c
     weigh_candidate_waterline(w, workspace, line, y_mm);
     return;
   }
-  const auto mark = [&](RutGeometry& g) {
-    g.has_water = true;
-    g.water_level_mm = line.level_mm;
-    g.waterline_left_x_mm = line.left_x_mm;
-    g.waterline_right_x_mm = line.right_x_mm;
-  };
+  const auto mark = [&](RutGeometry& g) { mark_water(g, line.level_mm, line.left_x_mm, line.right_x_mm); };
   m.conditions |= kConditionWater;
   const double seen_below = m.depth_mm - line.level_mm;
   const double u = std::isfinite(m.depth_uncertainty_mm) ? m.depth_uncertainty_mm : 0.0;
@@ -399,7 +400,7 @@ void StereoMeasurer::read_through_water(FrameWork& w, RutWorkspace& workspace, c
   r.conditions |= m.conditions;
   const double limit = config_.rut.max_depth_uncertainty_mm;
   if (r.status == RutStatus::Ok || r.status == RutStatus::Uncertain) {
-    r.quality = limit > 0.0 ? std::clamp(1.0 - r.depth_uncertainty_mm / (2.0 * limit), 0.0, 1.0) : 0.0;
+    r.quality = depth_quality(r.depth_uncertainty_mm, limit);
     if (r.depth_uncertainty_mm > limit) {
       r.status = RutStatus::Uncertain;
       r.conditions |= kConditionUncertain;
@@ -429,16 +430,13 @@ void StereoMeasurer::weigh_candidate_waterline(FrameWork& w, RutWorkspace& works
   workspace.geometry = dry;
   if (!depth_found(wet.status)) return;
   const double u = std::hypot(m.depth_uncertainty_mm, 0.5 * (wet.depth_mm - m.depth_mm));
-  if (!(u > config_.rut.max_depth_uncertainty_mm)) return;
+  const double limit = config_.rut.max_depth_uncertainty_mm;
+  if (!(u > limit)) return;
   m.depth_uncertainty_mm = u;
   m.status = RutStatus::Uncertain;
   m.conditions |= kConditionWater | kConditionUncertain;
-  const double limit = config_.rut.max_depth_uncertainty_mm;
-  m.quality = limit > 0.0 ? std::clamp(1.0 - u / (2.0 * limit), 0.0, 1.0) : 0.0;
-  workspace.geometry.has_water = true;
-  workspace.geometry.water_level_mm = line.level_mm;
-  workspace.geometry.waterline_left_x_mm = line.left_x_mm;
-  workspace.geometry.waterline_right_x_mm = line.right_x_mm;
+  m.quality = depth_quality(u, limit);
+  mark_water(workspace.geometry, line.level_mm, line.left_x_mm, line.right_x_mm);
 }
 
 void StereoMeasurer::extract(FrameWork& w, RutWorkspace& workspace) const {

@@ -100,4 +100,8 @@ void reduce_to_cross_section(const cv::Mat& xyz, const RutConfig& params, CrossS
 // (both with the depth computed but not Ok).
 RutMeasurement extract_rut(const CrossSection& section, const RutConfig& params, RutWorkspace& ws);
 
+// quality from a depth uncertainty u against the limit (RutConfig::max_depth_uncertainty_mm), as above:
+// 1 - u / (2 limit), clamped to 0..1; 0 when the limit is not positive.
+double depth_quality(double u_mm, double limit_mm);
+
 }  // namespace rutd
