@@ -393,15 +393,15 @@ void check_frame(const cv::Mat& left, const cv::Mat& right, const cv::Mat& dispa
       const int rx0 = x0 - static_cast<int>(std::lround(d));
       if (rx0 < 0 || rx0 + c.block_px > right.cols) continue;
       ++compared;
-      // A block that matched saw the same texture through both lenses: neither is obstructed there
-      // (what differs then is the scene: a surface lit or seen differently from the two viewpoints).
       const auto at = [](const std::vector<double>& v, int i) { return v[static_cast<std::size_t>(i)]; };
       const double tl = s.texture[0][static_cast<std::size_t>(b)],
                    tr = std::sqrt((at(s.column_grad2, rx0 + c.block_px) - at(s.column_grad2, rx0)) / window_pixels);
       const double bl = s.brightness[0][static_cast<std::size_t>(b)],
                    br = (at(s.column_sum, rx0 + c.block_px) - at(s.column_sum, rx0)) / window_pixels;
-      // A veil (frost, snow, a film lit from the side) lets the ground through: DIC may match it, yet the
-      // camera behind it sees the ground brighter and with a fraction of its texture.
+      // A block that matched saw the same texture through both lenses: no blob covers it (what differs
+      // then is mostly the scene: a surface lit or seen differently from the two viewpoints). Only a veil
+      // (frost, snow, a film lit from the side) lets the ground through to be matched, and the camera
+      // behind it sees the ground brighter and with a fraction of its texture.
       const auto veiled = [&](double t_self, double t_other, double b_self, double b_other) {
         return t_other >= c.min_texture && t_self < c.obstruction_ratio * t_other &&
                b_self >= (1.0 + c.veil_brightening) * b_other;
