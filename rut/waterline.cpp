@@ -245,10 +245,30 @@ LevelSpan find_level_span(const CrossSection& section, const std::vector<double>
                               : kNaN;
     out.step_threshold = std::isnan(spread) ? kNaN : std::max(config.min_step, config.step_over_ground * spread);
   }
+  // Against the flat ground outside the rut, which faces the light as a level span does: the median log
+  // brightness of the ground bins within 1 mm of the ground line (piles and stones slope) on each side,
+  // and of the two differences the smaller, zero unless both have one sign (a soil blotched on a larger
+  // scale than the rut, mud's, is darker on one side than on the other).
+  if (!ws.log_brightness.empty()) {
+    const double span = window_mean(ws.log_brightness, a, b, std::max(1, (b - a + 1) / 2));
+    const auto side = [&](int from, int to) {
+      ws.values.clear();
+      for (int i = std::max(from, 0); i <= std::min(to, n - 1); ++i) {
+        const double v = ws.log_brightness[static_cast<std::size_t>(i)], z = ws.z[static_cast<std::size_t>(i)];
+        if (!std::isnan(v) && std::abs(z) <= 1.0) ws.values.push_back(v);
+      }
+      return ws.values.size() >= 10
+                 ? span - detail::median_inplace(ws.values.data(), ws.values.data() + ws.values.size())
+                 : kNaN;
+    };
+    const double left = side(0, lo - 3), right = side(hi + 3, n - 1);
+    if (left * right > 0.0) out.ground_step = std::abs(left) < std::abs(right) ? left : right;
+  }
   const double edge = std::max(std::abs(out.left_step), std::abs(out.right_step));
-  out.found = (out.right_x_mm - out.left_x_mm) >= config.lid_min_width_mm &&
-              out.roughness_mm <= config.lid_roughness_ratio * out.ground_roughness_mm &&
-              edge >= config.lid_step_factor * out.step_threshold;
+  const bool level = (out.right_x_mm - out.left_x_mm) >= config.lid_min_width_mm &&
+                     out.roughness_mm <= config.lid_roughness_ratio * out.ground_roughness_mm;
+  out.found = level && edge >= config.lid_step_factor * out.step_threshold;
+  out.unlike_ground = level && std::abs(out.ground_step) >= config.lid_ground_factor * out.step_threshold;
   return out;
 }
 

@@ -337,7 +337,9 @@ double bin_brightness(const cv::Mat& xyz, const cv::Mat& left, int first, const 
 // unlike a wall beside it is a floating lid, refused first; with a waterline on both walls, a profile
 // that stops at it (a lid, opaque water) hides the bottom and is refused; one that goes on below it is the bottom seen
 // through the water, measured again on the section corrected for refraction and published flagged Water, its
-// uncertainty widened by the refraction model's (the index, and the waterline's level).
+// uncertainty widened by the refraction model's (the index, and the waterline's level). With no waterline,
+// a level span unlike the flat ground is a lid after all (LevelSpan::unlike_ground): the bottom seen
+// through clear water is unlike the ground too, but under a waterline.
 void StereoMeasurer::read_through_water(FrameWork& w, RutWorkspace& workspace, const cv::Mat& measured,
                                         int first) const {
   RutMeasurement& m = w.measurement;
@@ -370,7 +372,15 @@ void StereoMeasurer::read_through_water(FrameWork& w, RutWorkspace& workspace, c
       candidate = true;
     }
   }
-  if (!line.found) return;
+  if (!line.found) {
+    // No waterline above a level span unlike the ground: a lid whose edges the walls do not show.
+    if (lid.unlike_ground) {
+      m.conditions |= kConditionWater;
+      mark_water(workspace.geometry, lid.level_mm, lid.left_x_mm, lid.right_x_mm);
+      m.status = RutStatus::BottomNotSeen;
+    }
+    return;
+  }
   if (candidate) {
     weigh_candidate_waterline(w, workspace, line, y_mm);
     return;

@@ -114,6 +114,14 @@ const Case kCases[] = {
      "--height 322 --roll -1.8 --seed 1004 --water-level 21.3 --debris 0.75 --debris-kind litter "
      "--water-attenuation 0.012",
      4, "Water", 0.75, true},
+    // Litter on 30 mm of water in a 51 mm snow rut, darker than the snow, its edges no darker than the
+    // walls' shade beside them on either side: a level span unlike the flat ground outside the rut with
+    // no waterline above it (two of four frames were published OK 29.8 mm shallow).
+    {"litter_lid_d51_l30_snow",
+     "--texture snow --depth 51.1 --width 152 --bottom-width 70 --pile-left 9.0 --pile-right 0.9 --baseline 91 "
+     "--height 289 --roll -2.4 --seed 1020 --water-level 29.8 --debris 0.80 --debris-kind litter "
+     "--water-attenuation 0.026",
+     4, "Water", 1.0, true},
     // Clear water whose wet walls darken less, against a blotchy mud's or grass's own texture, than a
     // waterline asks (2-3.8 times the ground's spread, against 4): read both ways, the frames whose two
     // readings differ beyond the depth's uncertainty are refused with Water (were published OK 1.5-2.8

@@ -163,6 +163,34 @@ TEST(WaterlineLid, NotFoundOnARutBottomLitLikeItsWalls) {
   EXPECT_LT(std::max(std::abs(span.left_step), std::abs(span.right_step)), span.step_threshold);
 }
 
+TEST(WaterlineLid, UnlikeTheGroundWhereItsEdgesStepTooLittle) {  // litter on snow, the walls in shade
+  // A lid 1.35 times darker than the soil everywhere: log -0.30 against the walls, under the 1.5 x 0.22
+  // a single step needs, and the same against the flat ground, over the 1.1 x 0.22 that asks.
+  LidScene s(25.0, 1.0 / 1.35, 1.0 / 1.35);
+  ASSERT_TRUE(depth_found_for_test(s.m.status));
+  WaterlineWorkspace ws;
+  const LevelSpan lid = find_level_span(s.section, s.brightness, s.ws.geometry, WaterlineConfig{}, ws);
+  EXPECT_FALSE(lid.found);
+  EXPECT_NEAR(lid.ground_step, -std::log(1.35), 0.05);
+  EXPECT_TRUE(lid.unlike_ground);
+  // As bright as the ground: a rut's own bottom, however level and smooth.
+  Scene bottom;
+  const LevelSpan own =
+      find_level_span(bottom.section, bottom.brightness(25.0, 1.0, 0.05), bottom.ws.geometry, WaterlineConfig{}, ws);
+  EXPECT_NEAR(own.ground_step, 0.0, 0.05);
+  EXPECT_FALSE(own.unlike_ground);
+  // 1.2 times darker: log -0.18, under the factor.
+  LidScene faint(25.0, 1.0 / 1.2, 1.0 / 1.2);
+  // Darker than the ground on one side, brighter than on the other: a soil blotched on a larger scale.
+  LidScene blotched(25.0, 1.0 / 1.5, 1.5);
+  const LevelSpan two =
+      find_level_span(blotched.section, blotched.brightness, blotched.ws.geometry, WaterlineConfig{}, ws);
+  EXPECT_EQ(two.ground_step, 0.0);
+  EXPECT_FALSE(two.unlike_ground);
+  EXPECT_FALSE(
+      find_level_span(faint.section, faint.brightness, faint.ws.geometry, WaterlineConfig{}, ws).unlike_ground);
+}
+
 TEST(WaterlineLid, NotFoundOnABottomRougherThanTheGround) {  // compacted soil lit unlike the walls
   LidScene s(25.0, 1.0, 1.5, 0.2);
   WaterlineWorkspace ws;

@@ -63,7 +63,13 @@ struct WaterlineConfig {
   // rendered clean ruts up to 1.1 times the threshold, against 1.5-2.6 for litter and leaves). The span is the run of
   // bins about the deepest point within lid_tolerance_mm of its depth (or 3 times the ground's
   // bin-to-bin scatter, if more), so it is level with the ground line within that over its width; it
-  // must be at least lid_min_width_mm wide and scatter at most lid_roughness_ratio times the ground's. A rut's own
+  // must be at least lid_min_width_mm wide and scatter at most lid_roughness_ratio times the ground's.
+  // A level span whose mean brightness differs from the flat ground on both sides of the rut, in one
+  // sense, by lid_ground_factor times the threshold is unlike the ground (LevelSpan::unlike_ground):
+  // ground and span face the light alike, so shading cannot explain the difference, only another surface
+  // can: a lid, or the bottom seen darker through clear water. Without a waterline above it, it is taken
+  // for a lid (litter on snow: 1.20-2.20 times the threshold; rendered clean rut bottoms: up to 0.98, in
+  // mud, whose blotches are larger than the rut). A rut's own
   // bottom is soil as rough as the ground and lit like its walls where it meets them (its surface turns
   // smoothly there); a water surface cuts the walls wherever it stands. Where its walls' slopes change
   // at the waterline the matching window rounds the corner off (a few millimetres), as it does a rut
@@ -73,19 +79,22 @@ struct WaterlineConfig {
   double lid_min_width_mm = 10.0;
   double lid_roughness_ratio = 1.5;
   double lid_step_factor = 1.5;
+  double lid_ground_factor = 1.1;
 };
 
 // A level flat span at the bottom of the profile, lit unlike a wall beside it (WaterlineConfig::lid_check).
 struct LevelSpan {
-  bool found = false;      // all the tests passed
-  double level_mm = 0.0;   // the span's mean depth below the ground line, mm
-  double left_x_mm = 0.0;  // its ends
+  bool found = false;          // all the tests passed
+  bool unlike_ground = false;  // level, flat and unlike the flat ground (lid_ground_factor)
+  double level_mm = 0.0;       // the span's mean depth below the ground line, mm
+  double left_x_mm = 0.0;      // its ends
   double right_x_mm = 0.0;
   double tilt = 0.0;                         // its slope against the ground line
   double roughness_mm = 0.0;                 // its bin-to-bin scatter (robust sigma)
   double ground_roughness_mm = 0.0;          // the same over the ground outside the rut
   double left_step = 0.0, right_step = 0.0;  // log brightness on the span minus on the wall beyond
-  double step_threshold = 0.0;               // what a step must reach (find_waterline's)
+  double ground_step = 0.0;     // mean log brightness on the span minus the flat ground's median, the nearer side's
+  double step_threshold = 0.0;  // what a step must reach (find_waterline's)
 };
 
 struct Waterline {
