@@ -356,7 +356,8 @@ void StereoMeasurer::read_through_water(FrameWork& w, RutWorkspace& workspace, c
   Waterline line = find_waterline(w.section, w.bin_brightness, workspace.geometry, c, w.water);
   // Short of a waterline, a candidate (WaterlineConfig::candidate_step_over_ground): darkening below on
   // both walls and over the whole span between them by at least wetting's least (min_step), as wet soil
-  // or the water's body colour darkens (a lid that brightens is the lid check's).
+  // or the water's body colour darkens (a lid that brightens is the lid check's); a waterline after all
+  // where that span darkens by a waterline's threshold.
   bool candidate = false;
   if (!line.found && c.candidate_step_over_ground > 0.0) {
     WaterlineConfig relaxed = c;
@@ -369,7 +370,9 @@ void StereoMeasurer::read_through_water(FrameWork& w, RutWorkspace& workspace, c
     if (weak.found && weak.left_step < 0.0 && weak.right_step < 0.0 &&
         weak.left_x_mm - g.left_x_mm >= c.step_window_mm && g.right_x_mm - weak.right_x_mm >= c.step_window_mm) {
       line = weak;
-      candidate = true;
+      // The whole submerged span darker by what a confirmed line's steps must reach: the water is
+      // there, and the steps, short of it on one wall or both, only place its level.
+      candidate = !(-weak.submerged_step >= std::max(c.min_step, c.step_over_ground * weak.ground_spread));
     }
   }
   if (!line.found) {

@@ -51,8 +51,12 @@ struct WaterlineConfig {
   // (all of it wet), is a candidate waterline: clear water whose wet walls darken less, against the
   // soil's own texture, than the threshold asks (rendered clear water: 2-3.8 times the ground's spread,
   // against 4; its submerged span 0.6-1.0 darker) or a coincidence of the texture (shading under a rim
-  // darkens a band, not the span: 0.1-0.17). The frame is then read both ways and refused where the
-  // two readings differ by more than its depth uncertainty allows (StereoMeasurer). 0: off.
+  // darkens a band, not the span: 0.1-0.17). Where the whole submerged span darkens by what a waterline's
+  // steps must reach (step_over_ground times the spread, and min_step), the water is there and the
+  // steps only place its level: the candidate is a waterline (rendered clear water: 4.1-5.0 times; clean
+  // ruts' candidates: at most 3.7, and all but one at the bottom, where nothing is read below). Else the
+  // frame is read both ways and refused where the two readings differ by more than its depth
+  // uncertainty allows (StereoMeasurer). 0: off.
   double candidate_step_over_ground = 2.0;
 
   // A floating lid (foam, leaves, litter on the water) where no pair of steps marks the waterline
