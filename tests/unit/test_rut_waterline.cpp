@@ -191,13 +191,18 @@ TEST(WaterlineLid, UnlikeTheGroundWhereItsEdgesStepTooLittle) {  // litter on sn
       find_level_span(faint.section, faint.brightness, faint.ws.geometry, WaterlineConfig{}, ws).unlike_ground);
 }
 
-TEST(WaterlineLid, NotFoundOnABottomRougherThanTheGround) {  // compacted soil lit unlike the walls
-  LidScene s(25.0, 1.0, 1.5, 0.2);
+TEST(WaterlineLid, NotFoundOnABottomRougherThanTheGround) {  // clods lit unlike the walls
+  LidScene s(25.0, 1.0, 1.5, 0.3);
   WaterlineWorkspace ws;
   const LevelSpan span = find_level_span(s.section, s.brightness, s.ws.geometry, WaterlineConfig{}, ws);
-  EXPECT_GT(span.roughness_mm, 1.5 * span.ground_roughness_mm);
+  EXPECT_GT(span.roughness_mm, 4.0 * span.ground_roughness_mm);
   EXPECT_FALSE(span.found);
-  // The same with the lid's smoothness found.
+  // Floating debris, bumpier than still water and the ground, is a lid all the same...
+  LidScene debris(25.0, 1.0, 1.5, 0.1);
+  const LevelSpan bumpy = find_level_span(debris.section, debris.brightness, debris.ws.geometry, WaterlineConfig{}, ws);
+  EXPECT_GT(bumpy.roughness_mm, 1.5 * bumpy.ground_roughness_mm);
+  EXPECT_TRUE(bumpy.found);
+  // ... as is a smooth lid.
   LidScene smooth(25.0, 1.0, 1.5, 0.0);
   EXPECT_TRUE(find_level_span(smooth.section, smooth.brightness, smooth.ws.geometry, WaterlineConfig{}, ws).found);
 }

@@ -60,28 +60,29 @@ struct WaterlineConfig {
   double candidate_step_over_ground = 2.0;
 
   // A floating lid (foam, leaves, litter on the water) where no pair of steps marks the waterline
-  // (foam on snow is as bright as the snow on one wall): the profile's deepest span is level, no
+  // (foam on snow is as bright as the snow on one wall): the profile's deepest span is level, not much
   // rougher than the ground outside the rut at the matcher's precision, and its brightness steps
   // against the wall beyond it on at least one side by lid_step_factor times the threshold above (one
   // step is weaker evidence than a pair at one height: a wall turned from the light steps too; in
   // rendered clean ruts up to 1.1 times the threshold, against 1.5-2.6 for litter and leaves). The span is the run of
   // bins about the deepest point within lid_tolerance_mm of its depth (or 3 times the ground's
   // bin-to-bin scatter, if more), so it is level with the ground line within that over its width; it
-  // must be at least lid_min_width_mm wide and scatter at most lid_roughness_ratio times the ground's.
+  // must be at least lid_min_width_mm wide and scatter at most lid_roughness_ratio times the ground's:
+  // floating debris is bumpier than still water (foam and leaves 2-3.2 times the ground's scatter on
+  // rendered sand and grass), a bottom scattered more is soil (clods, tread marks).
   // A level span whose mean brightness differs from the flat ground on both sides of the rut, in one
   // sense, by lid_ground_factor times the threshold is unlike the ground (LevelSpan::unlike_ground):
   // ground and span face the light alike, so shading cannot explain the difference, only another surface
   // can: a lid, or the bottom seen darker through clear water. Without a waterline above it, it is taken
   // for a lid (litter on snow: 1.20-2.20 times the threshold; rendered clean rut bottoms: up to 0.98, in
-  // mud, whose blotches are larger than the rut). A rut's own
-  // bottom is soil as rough as the ground and lit like its walls where it meets them (its surface turns
-  // smoothly there); a water surface cuts the walls wherever it stands. Where its walls' slopes change
-  // at the waterline the matching window rounds the corner off (a few millimetres), as it does a rut
-  // bottom's, so the corner alone tells neither apart.
+  // mud, whose blotches are larger than the rut). A rut's own bottom is soil lit like its walls where
+  // it meets them (its surface turns smoothly there); a water surface cuts the walls wherever it stands. Where its
+  // walls' slopes change at the waterline the matching window rounds the corner off (a few millimetres), as it does a
+  // rut bottom's, so the corner alone tells neither apart.
   bool lid_check = true;
   double lid_tolerance_mm = 0.5;
   double lid_min_width_mm = 10.0;
-  double lid_roughness_ratio = 1.5;
+  double lid_roughness_ratio = 4.0;
   double lid_step_factor = 1.5;
   double lid_ground_factor = 1.1;
 };
