@@ -333,7 +333,7 @@ double bin_brightness(const cv::Mat& xyz, const cv::Mat& left, int first, const 
 
 }  // namespace
 
-// Standing water (rut/waterline.hpp): a level span at the bottom as smooth as a water surface and lit
+// Standing water (rut/waterline.hpp): a level span at the bottom, not much rougher than the ground, lit
 // unlike a wall beside it is a floating lid, refused first; with a waterline on both walls, a profile
 // that stops at it (a lid, opaque water) hides the bottom and is refused; one that goes on below it is the bottom seen
 // through the water, measured again on the section corrected for refraction and published flagged Water, its
