@@ -75,7 +75,7 @@ Waterline find_waterline(const CrossSection& section, const std::vector<double>&
   out.ground_spread = ws.values.size() >= 10
                           ? 1.4826 * detail::median_inplace(ws.values.data(), ws.values.data() + ws.values.size())
                           : 0.0;
-  const double threshold = std::max(config.min_step, config.step_over_ground * out.ground_spread);
+  const double threshold = waterline_step_threshold(config, out.ground_spread);
 
   // Candidate steps on each wall: local extremes of the step above the threshold, between the rim and
   // the deepest point, at least min_level_mm below the ground line.
@@ -222,7 +222,9 @@ LevelSpan find_level_span(const CrossSection& section, const std::vector<double>
   out.roughness_mm = bin_scatter(
       ws.z, [&](int i) { return i >= a && i <= b; }, ws.values);
   // Brightness across each end of the span: w bins on the span against w bins on the wall beyond it,
-  // against the same statistic's spread over the ground (find_waterline's threshold).
+  // against the same statistic's spread over the ground (find_waterline's threshold). Without the
+  // brightness the threshold is NaN, and no test on it passes.
+  out.step_threshold = kNaN;
   if (static_cast<int>(brightness.size()) == n) {
     const int w = std::max(2, static_cast<int>(std::lround(config.step_window_mm / dx)));
     const int need = (w + 1) / 2;
@@ -243,18 +245,16 @@ LevelSpan find_level_span(const CrossSection& section, const std::vector<double>
     const double spread = ws.values.size() >= 10
                               ? 1.4826 * detail::median_inplace(ws.values.data(), ws.values.data() + ws.values.size())
                               : kNaN;
-    out.step_threshold = std::isnan(spread) ? kNaN : std::max(config.min_step, config.step_over_ground * spread);
-  }
-  // Against the flat ground outside the rut, which faces the light as a level span does: the median log
-  // brightness of the ground bins within 1 mm of the ground line (piles and stones slope) on each side,
-  // and of the two differences the smaller, zero unless both have one sign (a soil blotched on a larger
-  // scale than the rut, mud's, is darker on one side than on the other).
-  if (!ws.log_brightness.empty()) {
-    const double span = window_mean(ws.log_brightness, a, b, std::max(1, (b - a + 1) / 2));
+    out.step_threshold = std::isnan(spread) ? kNaN : waterline_step_threshold(config, spread);
+    // Against the flat ground outside the rut, which faces the light as a level span does: the median log
+    // brightness of the ground bins within 1 mm of the ground line (piles and stones slope) on each side,
+    // and of the two differences the smaller, zero unless both have one sign (a soil blotched on a larger
+    // scale than the rut, mud's, is darker on one side than on the other).
+    const double span = window_mean(lb, a, b, std::max(1, (b - a + 1) / 2));
     const auto side = [&](int from, int to) {
       ws.values.clear();
       for (int i = std::max(from, 0); i <= std::min(to, n - 1); ++i) {
-        const double v = ws.log_brightness[static_cast<std::size_t>(i)], z = ws.z[static_cast<std::size_t>(i)];
+        const double v = lb[static_cast<std::size_t>(i)], z = ws.z[static_cast<std::size_t>(i)];
         if (!std::isnan(v) && std::abs(z) <= 1.0) ws.values.push_back(v);
       }
       return ws.values.size() >= 10

@@ -347,10 +347,13 @@ void StereoMeasurer::read_through_water(FrameWork& w, RutWorkspace& workspace, c
   if (!c.enabled || !depth_found(m.status) || !workspace.geometry.has_rut || !workspace.geometry.has_line) return;
   const double y_mm = bin_brightness(measured, w.left_strip, first, w.section, w.bin_brightness, w.bin_pixels);
   const LevelSpan lid = find_level_span(w.section, w.bin_brightness, workspace.geometry, c, w.water);
-  if (lid.found) {
+  const auto refuse_as_lid = [&] {
     m.conditions |= kConditionWater;
     mark_water(workspace.geometry, lid.level_mm, lid.left_x_mm, lid.right_x_mm);
     m.status = RutStatus::BottomNotSeen;
+  };
+  if (lid.found) {
+    refuse_as_lid();
     return;
   }
   Waterline line = find_waterline(w.section, w.bin_brightness, workspace.geometry, c, w.water);
@@ -372,16 +375,12 @@ void StereoMeasurer::read_through_water(FrameWork& w, RutWorkspace& workspace, c
       line = weak;
       // The whole submerged span darker by what a confirmed line's steps must reach: the water is
       // there, and the steps, short of it on one wall or both, only place its level.
-      candidate = !(-weak.submerged_step >= std::max(c.min_step, c.step_over_ground * weak.ground_spread));
+      candidate = !(-weak.submerged_step >= waterline_step_threshold(c, weak.ground_spread));
     }
   }
   if (!line.found) {
     // No waterline above a level span unlike the ground: a lid whose edges the walls do not show.
-    if (lid.unlike_ground) {
-      m.conditions |= kConditionWater;
-      mark_water(workspace.geometry, lid.level_mm, lid.left_x_mm, lid.right_x_mm);
-      m.status = RutStatus::BottomNotSeen;
-    }
+    if (lid.unlike_ground) refuse_as_lid();
     return;
   }
   if (candidate) {

@@ -173,6 +173,11 @@ TEST(WaterlineLid, UnlikeTheGroundWhereItsEdgesStepTooLittle) {  // litter on sn
   EXPECT_FALSE(lid.found);
   EXPECT_NEAR(lid.ground_step, -std::log(1.35), 0.05);
   EXPECT_TRUE(lid.unlike_ground);
+  // Without the brightness, nothing is judged (the workspace still holds this call's).
+  const LevelSpan blind = find_level_span(s.section, {}, s.ws.geometry, WaterlineConfig{}, ws);
+  EXPECT_EQ(blind.ground_step, 0.0);
+  EXPECT_FALSE(blind.found);
+  EXPECT_FALSE(blind.unlike_ground);
   // As bright as the ground: a rut's own bottom, however level and smooth.
   Scene bottom;
   const LevelSpan own =

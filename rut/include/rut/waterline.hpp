@@ -12,6 +12,7 @@
 // (two-media photogrammetry); refract_section undoes that ray by ray by Snell's law at the fitted plane.
 // Where the profile stops at the waterline (a lid, turbid water matched on its surface) the bottom is
 // not seen and no depth may be published.
+#include <algorithm>
 #include <vector>
 
 #include "core/cross_section.hpp"
@@ -99,7 +100,7 @@ struct LevelSpan {
   double ground_roughness_mm = 0.0;          // the same over the ground outside the rut
   double left_step = 0.0, right_step = 0.0;  // log brightness on the span minus on the wall beyond
   double ground_step = 0.0;     // mean log brightness on the span minus the flat ground's median, the nearer side's
-  double step_threshold = 0.0;  // what a step must reach (find_waterline's)
+  double step_threshold = 0.0;  // what a step must reach (find_waterline's); NaN without brightness
 };
 
 struct Waterline {
@@ -113,6 +114,12 @@ struct Waterline {
   double submerged_step = 0.0;  // mean log brightness between the two, minus on the walls just above
   double ground_spread = 0.0;   // robust spread of the step statistic over the ground
 };
+
+// What a brightness step must reach (find_waterline, find_level_span): min_step, and step_over_ground
+// times the step statistic's robust spread over the ground outside the rut.
+inline double waterline_step_threshold(const WaterlineConfig& config, double ground_spread) {
+  return std::max(config.min_step, config.step_over_ground * ground_spread);
+}
 
 // Scratch reused between frames; contents unspecified.
 struct WaterlineWorkspace {
