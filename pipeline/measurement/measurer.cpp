@@ -391,7 +391,11 @@ void StereoMeasurer::read_through_water(FrameWork& w, RutWorkspace& workspace, c
   m.conditions |= kConditionWater;
   const double seen_below = m.depth_mm - line.level_mm;
   const double u = std::isfinite(m.depth_uncertainty_mm) ? m.depth_uncertainty_mm : 0.0;
-  if (seen_below < std::max(c.min_seen_below_mm, 2.0 * std::hypot(u, line.level_u_mm))) {
+  // Water darkens what is seen through it (wet soil, the body colour; the surface reflects a few per cent
+  // looking down): a span brighter than the walls above its waterline is a lid at that level, and what
+  // stereo finds deeper is a gap in it or a leak of the matching windows, not the bottom.
+  const bool brightens = line.left_step > 0.0 && line.right_step > 0.0;
+  if (brightens || seen_below < std::max(c.min_seen_below_mm, 2.0 * std::hypot(u, line.level_u_mm))) {
     mark(workspace.geometry);
     m.status = RutStatus::BottomNotSeen;
     return;

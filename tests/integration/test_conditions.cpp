@@ -124,6 +124,15 @@ const Case kCases[] = {
      "--height 289 --roll -2.4 --seed 1020 --water-level 29.8 --debris 0.80 --debris-kind litter "
      "--water-attenuation 0.026",
      4, "Water", 1.0, true},
+    // Litter floating on 24 mm of water in a 59 mm sand rut, brighter than the wet walls: a pair of
+    // steps at one height that brightens below it, a lid's, not water's, which darkens what is seen
+    // through it. Stereo leaked through a gap in the lid to 43 mm; read through the surface as clear
+    // water, one frame of four was published OK 13.3 mm shallow.
+    {"litter_lid_brightening_sand",
+     "--texture sand --depth 59.3 --width 244 --bottom-width 133 --pile-left 4.2 --pile-right 13.6 --baseline 85 "
+     "--height 390 --roll -0.1 --seed 1036 --water-level 23.8 --debris 0.74 --debris-kind litter "
+     "--water-attenuation 0.010",
+     4, "Water", 1.0, true},
     // Clear water whose wet walls darken less, against a blotchy mud's or grass's own texture, than a
     // waterline asks (2-3.8 times the ground's spread, against 4), the whole span below them darker by 4
     // times it and more: read through as a waterline, published with Water within 1 mm (were published
