@@ -506,8 +506,16 @@ void check_frame(const cv::Mat& left, const cv::Mat& right, const cv::Mat& dispa
   // The status: the image conditions explain any failure; water only refuses a found depth (or a
   // shallow one: the lid of a pool is no rut); vegetation any status but a rut at the edge of the view.
   if (m.status == RutStatus::NoMeasurement) return;
-  // Exposure first: a dark or clipped strip also looks flat and unmatched.
-  if (m.conditions & (kConditionLowLight | kConditionOverexposed)) {
+  // Exposure first: a dark or clipped strip also looks flat and unmatched. Clipping alone, where
+  // extract_rut measured the depth OK (within its uncertainty limit) and no other check fired, only
+  // took texture away: DIC finds no gradient in a clipped patch and leaves it unmatched, and the
+  // depth's coverage term counts what the unmatched bins could hide. The flag stays; the depth stands
+  // (auto exposure holding the median of dark mud up clips its bright patches on every frame).
+  constexpr std::uint8_t kOtherBits = kConditionLowLight | kConditionLeftObstructed | kConditionRightObstructed |
+                                      kConditionCalibrationDrift | kConditionVegetation | kConditionWater;
+  const bool clipped_only = (m.conditions & kConditionOverexposed) && !(m.conditions & kOtherBits) &&
+                            m.status == RutStatus::Ok && !unsynchronised && !bottom_hidden;
+  if ((m.conditions & (kConditionLowLight | kConditionOverexposed)) && !clipped_only) {
     m.status = RutStatus::BadExposure;
   } else if (unsynchronised) {
     // The views show the ground at two moments: what their comparison raised is the motion's, except a

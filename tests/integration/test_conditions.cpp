@@ -167,6 +167,12 @@ const Case kCases[] = {
     {"night_auto_sand", "--depth 50 --auto-exposure --light 0.015 --seed 55", 4, "LowLight", 1.0, true},
     {"night_auto_grass", "--depth 40 --texture grass --auto-exposure --light 0.02 --seed 56", 4, "LowLight", 1.0, true},
     {"overexposed_sand", "--depth 50 --exposure 4 --seed 53", 4, "Overexposed", 1.0, true},
+    // Clipped patches only (exposure 2.5 and 3 on sand and grass: more of the strip at full scale than the
+    // flag's 15 %, the rest textured): the clipped texture goes unmatched and the coverage term counts
+    // what it hides, so the depth is published OK, flagged, within 1 mm (measured: 0.10 mm at most;
+    // refused BAD_EXPOSURE before).
+    {"clipped_sand", "--depth 45 --texture sand --exposure 2.5 --seed 77", 4, "Overexposed", 1.0, true, 3},
+    {"clipped_grass", "--depth 45 --texture grass --exposure 3 --seed 78", 4, "Overexposed", 1.0, true, 3},
     {"overexposed_snow", "--depth 30 --texture snow --exposure 2.5 --seed 54", 4, "Overexposed", 1.0, true},
     // Grass blades outside the rut.
     {"grass40_sand", "--depth 50 --grass-height 40 --seed 61", 4, "Vegetation", 0.75, false},

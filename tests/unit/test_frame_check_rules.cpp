@@ -51,11 +51,11 @@ struct Strips {
 };
 
 RutMeasurement check(const Strips& s, ConditionConfig config = {}, std::int64_t skew_ns = 0,
-                     const RutGeometry& rut = {}, const PairSignal& signal = {}) {
+                     const RutGeometry& rut = {}, const PairSignal& signal = {}, RutStatus measured = RutStatus::Ok) {
   const StereoGeometry geometry(ideal_rig(), StripRoi{220, kRows});
   FrameCheckScratch scratch;
   RutMeasurement m;
-  m.status = RutStatus::Ok;
+  m.status = measured;
   check_frame(s.left, s.right, s.disparity, 0, kRows, geometry, rut, DisparityBand{0, 64}, skew_ns, signal, config,
               scratch, m);
   return m;
@@ -160,7 +160,21 @@ TEST(FrameChecks, ExposureRules) {
   Strips bright(200, 40);
   bright.left.colRange(0, 200).setTo(255);
   bright.right.colRange(0, 200).setTo(255);
-  EXPECT_TRUE(check(bright).conditions & kConditionOverexposed);
+  // Clipping alone took texture away, no more: a depth extract_rut measured OK stands, flagged.
+  const RutMeasurement clipped = check(bright);
+  EXPECT_EQ(clipped.conditions, kConditionOverexposed) << int(clipped.conditions);
+  EXPECT_EQ(clipped.status, RutStatus::Ok);
+  // A depth over its uncertainty limit, or another condition beside it: the exposure is the status.
+  EXPECT_EQ(check(bright, {}, 0, {}, {}, RutStatus::Uncertain).status, RutStatus::BadExposure);
+  Strips blob = bright;  // and a mud blob on the right lens, unmatched
+  blob.right = bright.right.clone();
+  blob.disparity = bright.disparity.clone();
+  blob.right.colRange(300, 400).setTo(8);
+  blob.disparity.colRange(300 + kDisparity, 400 + kDisparity).setTo(std::numeric_limits<float>::quiet_NaN());
+  const RutMeasurement two = check(blob);
+  EXPECT_TRUE(two.conditions & kConditionOverexposed);
+  EXPECT_TRUE(two.conditions & kConditionRightObstructed) << int(two.conditions);
+  EXPECT_EQ(two.status, RutStatus::BadExposure);
   EXPECT_FALSE(check(Strips(200, 20)).conditions & kConditionOverexposed);
 }
 

@@ -47,7 +47,9 @@ struct ConditionConfig {
   // Exposure, over both strips: low light when the median grey level is below low_light_level of full
   // scale (the texture is then a few grey levels, drowned by read and quantisation noise); overexposed
   // when more than overexposed_fraction of the pixels are at or above saturated_level of full scale
-  // (clipped pixels carry no texture, and a clipped window biases DIC).
+  // (clipped pixels carry no texture). Clipping alone refuses no depth extract_rut measured OK: the
+  // clipped patches go unmatched and the depth's coverage term counts them (measured on rendered sand,
+  // mud and grass clipped at exposures 2-3: errors 0.23 mm at most, as unclipped).
   double low_light_level = 0.06;
   // Low light under auto exposure and gain, which hold the median grey level up whatever the light: in
   // the raw images (ImageSignal), neither camera's texture reaches low_light_texture_to_noise of its
