@@ -511,10 +511,7 @@ void check_frame(const cv::Mat& left, const cv::Mat& right, const cv::Mat& dispa
   // took texture away: DIC finds no gradient in a clipped patch and leaves it unmatched, and the
   // depth's coverage term counts what the unmatched bins could hide. The flag stays; the depth stands
   // (auto exposure holding the median of dark mud up clips its bright patches on every frame).
-  constexpr std::uint8_t kOtherBits = kConditionLowLight | kConditionLeftObstructed | kConditionRightObstructed |
-                                      kConditionCalibrationDrift | kConditionVegetation | kConditionWater;
-  const bool clipped_only = (m.conditions & kConditionOverexposed) && !(m.conditions & kOtherBits) &&
-                            m.status == RutStatus::Ok && !unsynchronised && !bottom_hidden;
+  const bool clipped_only = m.conditions == kConditionOverexposed && m.status == RutStatus::Ok && !unsynchronised;
   if ((m.conditions & (kConditionLowLight | kConditionOverexposed)) && !clipped_only) {
     m.status = RutStatus::BadExposure;
   } else if (unsynchronised) {
