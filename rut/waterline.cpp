@@ -28,6 +28,24 @@ double window_mean(const std::vector<double>& v, int lo, int hi, int need) {
   return n >= need ? sum / n : kNaN;
 }
 
+// Median of v over the flat ground bins in [from, to] (clamped): those within 1 mm of the ground line
+// (z: heights below it; piles and stones slope), NaN with fewer than 10.
+double flat_ground_median(const std::vector<double>& v, const std::vector<double>& z, int from, int to,
+                          std::vector<double>& scratch) {
+  scratch.clear();
+  for (int i = std::max(from, 0); i <= std::min(to, static_cast<int>(v.size()) - 1); ++i) {
+    const double value = v[static_cast<std::size_t>(i)], height = z[static_cast<std::size_t>(i)];
+    if (!std::isnan(value) && std::abs(height) <= 1.0) scratch.push_back(value);
+  }
+  return scratch.size() >= 10 ? detail::median_inplace(scratch.data(), scratch.data() + scratch.size()) : kNaN;
+}
+
+// Of two differences, the smaller in size; 0 unless both have one sign (NaN: unknown, 0 too).
+double smaller_same_sign(double left, double right) {
+  if (!(left * right > 0.0)) return 0.0;
+  return std::abs(left) < std::abs(right) ? left : right;
+}
+
 struct Step {
   int bin = -1;       // the boundary lies between bin and bin + 1
   double step = 0.0;  // log brightness below the boundary minus above it
@@ -157,7 +175,8 @@ double bin_scatter(const std::vector<double>& z, Use use, std::vector<double>& s
 }  // namespace
 
 LevelSpan find_level_span(const CrossSection& section, const std::vector<double>& brightness,
-                          const RutGeometry& geometry, const WaterlineConfig& config, WaterlineWorkspace& ws) {
+                          const std::vector<double>& texture, const RutGeometry& geometry,
+                          const WaterlineConfig& config, WaterlineWorkspace& ws) {
   LevelSpan out;
   const int n = static_cast<int>(section.z_mm.size());
   if (!config.enabled || !config.lid_check || !geometry.has_line || !geometry.has_rut || n < 8 || !(section.dx_mm > 0))
@@ -251,24 +270,35 @@ LevelSpan find_level_span(const CrossSection& section, const std::vector<double>
     // and of the two differences the smaller, zero unless both have one sign (a soil blotched on a larger
     // scale than the rut, mud's, is darker on one side than on the other).
     const double span = window_mean(lb, a, b, std::max(1, (b - a + 1) / 2));
-    const auto side = [&](int from, int to) {
-      ws.values.clear();
-      for (int i = std::max(from, 0); i <= std::min(to, n - 1); ++i) {
-        const double v = lb[static_cast<std::size_t>(i)], z = ws.z[static_cast<std::size_t>(i)];
-        if (!std::isnan(v) && std::abs(z) <= 1.0) ws.values.push_back(v);
-      }
-      return ws.values.size() >= 10
-                 ? span - detail::median_inplace(ws.values.data(), ws.values.data() + ws.values.size())
-                 : kNaN;
-    };
-    const double left = side(0, lo - 3), right = side(hi + 3, n - 1);
-    if (left * right > 0.0) out.ground_step = std::abs(left) < std::abs(right) ? left : right;
+    out.ground_step = smaller_same_sign(span - flat_ground_median(lb, ws.z, 0, lo - 3, ws.values),
+                                        span - flat_ground_median(lb, ws.z, hi + 3, n - 1, ws.values));
+  }
+  // Texture (WaterlineConfig::lid_texture_step): the whole span's mean log texture against the wall
+  // beyond each end (step_window_mm of it) and against the flat ground's median on each side.
+  if (static_cast<int>(texture.size()) == n) {
+    const int w = std::max(2, static_cast<int>(std::lround(config.step_window_mm / dx)));
+    const int need = (w + 1) / 2;
+    ws.log_texture.assign(static_cast<std::size_t>(n), kNaN);
+    for (int i = 0; i < n; ++i) {
+      const double t = texture[static_cast<std::size_t>(i)];
+      if (t > 0.0 && std::isfinite(t)) ws.log_texture[static_cast<std::size_t>(i)] = std::log(t);
+    }
+    const auto& lt = ws.log_texture;
+    const double span = window_mean(lt, a, b, std::max(1, (b - a + 1) / 2));
+    out.texture_left_step = span - window_mean(lt, a - w, a - 1, need);
+    out.texture_right_step = span - window_mean(lt, b + 1, b + w, need);
+    out.texture_ground_step = smaller_same_sign(span - flat_ground_median(lt, ws.z, 0, lo - 3, ws.values),
+                                                span - flat_ground_median(lt, ws.z, hi + 3, n - 1, ws.values));
   }
   const double edge = std::max(std::abs(out.left_step), std::abs(out.right_step));
   const bool level = (out.right_x_mm - out.left_x_mm) >= config.lid_min_width_mm &&
                      out.roughness_mm <= config.lid_roughness_ratio * out.ground_roughness_mm;
   out.found = level && edge >= config.lid_step_factor * out.step_threshold;
   out.unlike_ground = level && std::abs(out.ground_step) >= config.lid_ground_factor * out.step_threshold;
+  // Unlike the soil on all three in one sense (NaN steps fail every comparison).
+  const double walls = smaller_same_sign(out.texture_left_step, out.texture_right_step);
+  const double all = smaller_same_sign(walls, out.texture_ground_step);
+  out.other_material = level && config.lid_texture_step > 0.0 && std::abs(all) >= config.lid_texture_step;
   return out;
 }
 

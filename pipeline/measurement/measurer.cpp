@@ -303,31 +303,47 @@ void mark_water(RutGeometry& g, double level_mm, double left_x_mm, double right_
   g.waterline_right_x_mm = right_x_mm;
 }
 
-// Mean grey level of the left strip's pixels that reduce_to_cross_section averaged into each bin (the
-// same rule: the nearest bin to the point's X), NaN where none; returns the mean Y of those points, mm.
-double bin_brightness(const cv::Mat& xyz, const cv::Mat& left, int first, const CrossSection& section,
-                      std::vector<double>& brightness, std::vector<int>& pixels) {
+// Per cross-section bin, of the left strip's pixels that reduce_to_cross_section averaged into it (the
+// same rule: the nearest bin to the point's X): the mean grey level, and the texture of
+// WaterlineConfig::lid_texture_step, sqrt(mean squared difference to the next row - 2 noise^2) / mean
+// grey level (noise_grey: the strip's noise deviation, grey levels; the root's argument is floored at a
+// quarter grey level squared); NaN where none. Returns the mean Y of those points, mm.
+double bin_appearance(const cv::Mat& xyz, const cv::Mat& left, int first, const CrossSection& section,
+                      double noise_grey, std::vector<double>& brightness, std::vector<double>& texture,
+                      std::vector<int>& pixels) {
   const std::size_t bins = section.z_mm.size();
   brightness.assign(bins, 0.0);
+  texture.assign(bins, 0.0);  // sums of squared row differences until the end
   pixels.assign(bins, 0);
   double y_sum = 0.0;
   long points = 0;
-  for (int r = 0; r < xyz.rows; ++r) {
+  for (int r = 0; r < xyz.rows && first + r + 1 < left.rows; ++r) {
     const cv::Vec3f* p = xyz.ptr<cv::Vec3f>(r);
     const std::uint8_t* g = left.ptr<std::uint8_t>(first + r);
+    const std::uint8_t* next = left.ptr<std::uint8_t>(first + r + 1);
     for (int u = 0; u < xyz.cols && u < left.cols; ++u) {
       const cv::Vec3f& q = p[u];
       if (!std::isfinite(q[0]) || !std::isfinite(q[1]) || !(q[2] > 0.0f)) continue;
       const long b = std::lround((q[0] - section.x0_mm) / section.dx_mm);
       if (b < 0 || b >= static_cast<long>(bins)) continue;
-      brightness[static_cast<std::size_t>(b)] += g[u];
-      ++pixels[static_cast<std::size_t>(b)];
+      const auto k = static_cast<std::size_t>(b);
+      const double d = double(next[u]) - double(g[u]);
+      brightness[k] += g[u];
+      texture[k] += d * d;
+      ++pixels[k];
       y_sum += q[1];
       ++points;
     }
   }
-  for (std::size_t b = 0; b < bins; ++b)
-    brightness[b] = pixels[b] > 0 ? brightness[b] / pixels[b] : std::numeric_limits<double>::quiet_NaN();
+  const double noise2 = 2.0 * noise_grey * noise_grey;
+  for (std::size_t b = 0; b < bins; ++b) {
+    if (pixels[b] == 0) {
+      brightness[b] = texture[b] = std::numeric_limits<double>::quiet_NaN();
+      continue;
+    }
+    brightness[b] /= pixels[b];
+    texture[b] = std::sqrt(std::max(texture[b] / pixels[b] - noise2, 0.25)) / std::max(brightness[b], 1.0);
+  }
   return points > 0 ? y_sum / double(points) : 0.0;
 }
 
@@ -345,14 +361,20 @@ void StereoMeasurer::read_through_water(FrameWork& w, RutWorkspace& workspace, c
   RutMeasurement& m = w.measurement;
   const WaterlineConfig& c = config_.water;
   if (!c.enabled || !depth_found(m.status) || !workspace.geometry.has_rut || !workspace.geometry.has_line) return;
-  const double y_mm = bin_brightness(measured, w.left_strip, first, w.section, w.bin_brightness, w.bin_pixels);
-  const LevelSpan lid = find_level_span(w.section, w.bin_brightness, workspace.geometry, c, w.water);
+  // The strip's noise for the texture, from sixteen of its rows (its own: rectification's interpolation
+  // smooths the raw images' noise).
+  const ImageSignal strip = image_signal(w.left_strip, first, first + strip_.rows, 16, w.checks.histogram);
+  const double noise_grey = std::isfinite(strip.noise) ? 255.0 * strip.noise : 0.0;
+  const double y_mm = bin_appearance(measured, w.left_strip, first, w.section, noise_grey, w.bin_brightness,
+                                     w.bin_texture, w.bin_pixels);
+  const LevelSpan lid = find_level_span(w.section, w.bin_brightness, w.bin_texture, workspace.geometry, c, w.water);
   const auto refuse_as_lid = [&] {
     m.conditions |= kConditionWater;
     mark_water(workspace.geometry, lid.level_mm, lid.left_x_mm, lid.right_x_mm);
     m.status = RutStatus::BottomNotSeen;
   };
-  if (lid.found) {
+  // Lit unlike a wall, or of another material than the soil: floating debris at that level.
+  if (lid.found || lid.other_material) {
     refuse_as_lid();
     return;
   }

@@ -133,6 +133,15 @@ const Case kCases[] = {
      "--height 390 --roll -0.1 --seed 1036 --water-level 23.8 --debris 0.74 --debris-kind litter "
      "--water-attenuation 0.010",
      4, "Water", 1.0, true},
+    // Foam floating on 5 mm of clear water in a 43 mm snow rut, lit like the snow (no brightness step
+    // on either wall, none against the ground) but far more textured than it: the span's texture, which
+    // the light scales away, is 3-5 times the walls' and the ground's. All four frames were published OK
+    // 5.1 mm shallow, the lid measured as the bottom.
+    {"foam_lid_textured_snow",
+     "--texture snow --depth 42.9 --width 175 --bottom-width 55 --pile-left 1.4 --pile-right 14.4 --baseline 74 "
+     "--height 357 --roll 2.2 --seed 1002 --water-level 5.1 --debris 0.92 --debris-kind foam "
+     "--water-attenuation 0.025",
+     4, "Water", 1.0, true},
     // Clear water whose wet walls darken less, against a blotchy mud's or grass's own texture, than a
     // waterline asks (2-3.8 times the ground's spread, against 4), the whole span below them darker by 4
     // times it and more: read through as a waterline, published with Water within 1 mm (were published

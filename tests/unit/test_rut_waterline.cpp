@@ -138,7 +138,7 @@ TEST(WaterlineLid, FoundWithAStepOnOneWallOnly) {  // foam on snow: as bright as
   // The pair of steps find_waterline needs is not there...
   EXPECT_FALSE(find_waterline(s.section, s.brightness, s.ws.geometry, WaterlineConfig{}, ws).found);
   // ...the level span lit unlike one wall is.
-  const LevelSpan lid = find_level_span(s.section, s.brightness, s.ws.geometry, WaterlineConfig{}, ws);
+  const LevelSpan lid = find_level_span(s.section, s.brightness, {}, s.ws.geometry, WaterlineConfig{}, ws);
   ASSERT_TRUE(lid.found);
   EXPECT_NEAR(lid.level_mm, 25.0, 0.2);
   EXPECT_NEAR(lid.left_step, 0.0, 0.1);
@@ -148,7 +148,7 @@ TEST(WaterlineLid, FoundWithAStepOnOneWallOnly) {  // foam on snow: as bright as
   const double half = 50.0 + 50.0 * std::acos(2.0 * 25.0 / 40.0 - 1.0) / kPi;
   EXPECT_NEAR(lid.right_x_mm - lid.left_x_mm, 2.0 * half, 4.0);
   // A darker lid (wet litter) the same.
-  EXPECT_TRUE(find_level_span(LidScene(25.0, 0.6, 1.0).section, LidScene(25.0, 0.6, 1.0).brightness,
+  EXPECT_TRUE(find_level_span(LidScene(25.0, 0.6, 1.0).section, LidScene(25.0, 0.6, 1.0).brightness, {},
                               LidScene(25.0, 0.6, 1.0).ws.geometry, WaterlineConfig{}, ws)
                   .found);
 }
@@ -157,7 +157,7 @@ TEST(WaterlineLid, NotFoundOnARutBottomLitLikeItsWalls) {
   Scene s;  // the rut's own flat bottom, level and smooth, soil brightness throughout
   WaterlineWorkspace ws;
   const LevelSpan span =
-      find_level_span(s.section, s.brightness(25.0, 1.0, 0.05), s.ws.geometry, WaterlineConfig{}, ws);
+      find_level_span(s.section, s.brightness(25.0, 1.0, 0.05), {}, s.ws.geometry, WaterlineConfig{}, ws);
   EXPECT_FALSE(span.found);
   EXPECT_NEAR(span.level_mm, 40.0, 0.3);  // the span delimited is the bottom
   EXPECT_LT(std::max(std::abs(span.left_step), std::abs(span.right_step)), span.step_threshold);
@@ -169,19 +169,19 @@ TEST(WaterlineLid, UnlikeTheGroundWhereItsEdgesStepTooLittle) {  // litter on sn
   LidScene s(25.0, 1.0 / 1.35, 1.0 / 1.35);
   ASSERT_TRUE(depth_found_for_test(s.m.status));
   WaterlineWorkspace ws;
-  const LevelSpan lid = find_level_span(s.section, s.brightness, s.ws.geometry, WaterlineConfig{}, ws);
+  const LevelSpan lid = find_level_span(s.section, s.brightness, {}, s.ws.geometry, WaterlineConfig{}, ws);
   EXPECT_FALSE(lid.found);
   EXPECT_NEAR(lid.ground_step, -std::log(1.35), 0.05);
   EXPECT_TRUE(lid.unlike_ground);
   // Without the brightness, nothing is judged (the workspace still holds this call's).
-  const LevelSpan blind = find_level_span(s.section, {}, s.ws.geometry, WaterlineConfig{}, ws);
+  const LevelSpan blind = find_level_span(s.section, {}, {}, s.ws.geometry, WaterlineConfig{}, ws);
   EXPECT_EQ(blind.ground_step, 0.0);
   EXPECT_FALSE(blind.found);
   EXPECT_FALSE(blind.unlike_ground);
   // As bright as the ground: a rut's own bottom, however level and smooth.
   Scene bottom;
-  const LevelSpan own =
-      find_level_span(bottom.section, bottom.brightness(25.0, 1.0, 0.05), bottom.ws.geometry, WaterlineConfig{}, ws);
+  const LevelSpan own = find_level_span(bottom.section, bottom.brightness(25.0, 1.0, 0.05), {}, bottom.ws.geometry,
+                                        WaterlineConfig{}, ws);
   EXPECT_NEAR(own.ground_step, 0.0, 0.05);
   EXPECT_FALSE(own.unlike_ground);
   // 1.2 times darker: log -0.18, under the factor.
@@ -189,27 +189,82 @@ TEST(WaterlineLid, UnlikeTheGroundWhereItsEdgesStepTooLittle) {  // litter on sn
   // Darker than the ground on one side, brighter than on the other: a soil blotched on a larger scale.
   LidScene blotched(25.0, 1.0 / 1.5, 1.5);
   const LevelSpan two =
-      find_level_span(blotched.section, blotched.brightness, blotched.ws.geometry, WaterlineConfig{}, ws);
+      find_level_span(blotched.section, blotched.brightness, {}, blotched.ws.geometry, WaterlineConfig{}, ws);
   EXPECT_EQ(two.ground_step, 0.0);
   EXPECT_FALSE(two.unlike_ground);
   EXPECT_FALSE(
-      find_level_span(faint.section, faint.brightness, faint.ws.geometry, WaterlineConfig{}, ws).unlike_ground);
+      find_level_span(faint.section, faint.brightness, {}, faint.ws.geometry, WaterlineConfig{}, ws).unlike_ground);
 }
 
 TEST(WaterlineLid, NotFoundOnABottomRougherThanTheGround) {  // clods lit unlike the walls
   LidScene s(25.0, 1.0, 1.5, 0.3);
   WaterlineWorkspace ws;
-  const LevelSpan span = find_level_span(s.section, s.brightness, s.ws.geometry, WaterlineConfig{}, ws);
+  const LevelSpan span = find_level_span(s.section, s.brightness, {}, s.ws.geometry, WaterlineConfig{}, ws);
   EXPECT_GT(span.roughness_mm, 4.0 * span.ground_roughness_mm);
   EXPECT_FALSE(span.found);
   // Floating debris, bumpier than still water and the ground, is a lid all the same...
   LidScene debris(25.0, 1.0, 1.5, 0.1);
-  const LevelSpan bumpy = find_level_span(debris.section, debris.brightness, debris.ws.geometry, WaterlineConfig{}, ws);
+  const LevelSpan bumpy =
+      find_level_span(debris.section, debris.brightness, {}, debris.ws.geometry, WaterlineConfig{}, ws);
   EXPECT_GT(bumpy.roughness_mm, 1.5 * bumpy.ground_roughness_mm);
   EXPECT_TRUE(bumpy.found);
   // ... as is a smooth lid.
   LidScene smooth(25.0, 1.0, 1.5, 0.0);
-  EXPECT_TRUE(find_level_span(smooth.section, smooth.brightness, smooth.ws.geometry, WaterlineConfig{}, ws).found);
+  EXPECT_TRUE(find_level_span(smooth.section, smooth.brightness, {}, smooth.ws.geometry, WaterlineConfig{}, ws).found);
+}
+
+// Foam on snow: lit like the soil (no brightness step anywhere), but another material. Texture per bin
+// (WaterlineConfig::lid_texture_step): the soil's 0.05 with a log-normal scatter of 0.1, the lid's
+// `factor` times that.
+TEST(WaterlineLid, OfAnotherMaterialWhereItsTextureIsUnlikeTheSoilsAllRound) {
+  LidScene s(25.0, 1.0, 1.0);
+  ASSERT_TRUE(depth_found_for_test(s.m.status));
+  WaterlineWorkspace ws;
+  const auto texture = [&](double factor) {
+    std::vector<double> t = s.base.brightness(25.0, factor, 0.1);
+    for (double& v : t) v *= 0.05 / 100.0;
+    return t;
+  };
+  const auto span = [&](const std::vector<double>& t) {
+    return find_level_span(s.section, s.brightness, t, s.ws.geometry, WaterlineConfig{}, ws);
+  };
+  const LevelSpan foam = span(texture(3.0));
+  EXPECT_FALSE(foam.found);  // no brightness cue...
+  EXPECT_FALSE(foam.unlike_ground);
+  EXPECT_TRUE(foam.other_material);  // ...the texture's
+  EXPECT_NEAR(foam.texture_left_step, std::log(3.0), 0.15);
+  EXPECT_NEAR(foam.texture_right_step, std::log(3.0), 0.15);
+  EXPECT_NEAR(foam.texture_ground_step, std::log(3.0), 0.15);
+  EXPECT_TRUE(span(texture(1.0 / 3.0)).other_material);  // a smoother lid (still water with a film)
+  // 2 times: log 0.69, under the 0.8 asked (a rut bottom compacted by the tyre).
+  EXPECT_FALSE(span(texture(2.0)).other_material);
+  EXPECT_FALSE(span(texture(1.0)).other_material);
+  // Unlike the walls but like the ground beyond them on both sides: a rut's bottom of the ground's soil
+  // between walls of another (a rut cut through a top layer).
+  const RutGeometry& g = s.ws.geometry;
+  std::vector<double> like_ground = texture(3.0);
+  for (std::size_t i = 0; i < like_ground.size(); ++i) {
+    const double x = s.section.x0_mm + s.section.dx_mm * double(i);
+    if (x < g.left_x_mm - 5.0 || x > g.right_x_mm + 5.0) like_ground[i] *= 3.0;
+  }
+  const LevelSpan layer = span(like_ground);
+  EXPECT_NEAR(layer.texture_ground_step, 0.0, 0.15);
+  EXPECT_FALSE(layer.other_material);
+  // Unlike one wall only: the other side's soil is the lid's.
+  std::vector<double> one_wall = texture(3.0);
+  for (std::size_t i = 0; i < one_wall.size(); ++i) {
+    const double x = s.section.x0_mm + s.section.dx_mm * double(i);
+    const double depth = z_at_x(s.base.shape, s.base.view, x) - s.base.view.ground_z;
+    if (x < 0.0 && depth <= 25.0) one_wall[i] *= 3.0;
+  }
+  EXPECT_FALSE(span(one_wall).other_material);
+  // Without the texture, nothing is judged; with the rule off, neither.
+  const LevelSpan blind = span({});
+  EXPECT_TRUE(std::isnan(blind.texture_left_step));
+  EXPECT_FALSE(blind.other_material);
+  WaterlineConfig off;
+  off.lid_texture_step = 0.0;
+  EXPECT_FALSE(find_level_span(s.section, s.brightness, texture(3.0), s.ws.geometry, off, ws).other_material);
 }
 
 // Forward model: the point of the X-Z plane where a camera at (cx, 0) sees the bottom point p through a

@@ -13,6 +13,7 @@
 // Where the profile stops at the waterline (a lid, turbid water matched on its surface) the bottom is
 // not seen and no depth may be published.
 #include <algorithm>
+#include <limits>
 #include <vector>
 
 #include "core/cross_section.hpp"
@@ -80,6 +81,16 @@ struct WaterlineConfig {
   // it meets them (its surface turns smoothly there); a water surface cuts the walls wherever it stands. Where its
   // walls' slopes change at the waterline the matching window rounds the corner off (a few millimetres), as it does a
   // rut bottom's, so the corner alone tells neither apart.
+  // A level span of another material than the soil (LevelSpan::other_material): its texture differs
+  // from the walls beyond both its ends and from the flat ground on both sides of the rut, in one
+  // sense, by more than lid_texture_step (log; 0.8: 2.2 times). The texture is the brightness's RMS
+  // difference between neighbouring rows (along the travel, where walls are not foreshortened), less
+  // the noise's share, over the mean brightness: light falling on a surface scales its grey levels and
+  // their variations alike, so shading, which confounds the brightness steps above, leaves it alone,
+  // while foam, leaves and litter are not soil (foam on snow 3.5-5 times the snow's). A rut's own
+  // bottom is the soil of its walls (rendered clean ruts: at most 0.58 in log on all three together,
+  // in mud, whose blotches are larger than the rut; floating lids on snow and mud 0.9-1.7). 0: off.
+  double lid_texture_step = 0.8;
   bool lid_check = true;
   double lid_tolerance_mm = 0.5;
   double lid_min_width_mm = 10.0;
@@ -87,6 +98,8 @@ struct WaterlineConfig {
   double lid_step_factor = 1.5;
   double lid_ground_factor = 1.1;
 };
+
+inline constexpr double kLevelSpanUnknown = std::numeric_limits<double>::quiet_NaN();
 
 // A level flat span at the bottom of the profile, lit unlike a wall beside it (WaterlineConfig::lid_check).
 struct LevelSpan {
@@ -101,6 +114,11 @@ struct LevelSpan {
   double left_step = 0.0, right_step = 0.0;  // log brightness on the span minus on the wall beyond
   double ground_step = 0.0;     // mean log brightness on the span minus the flat ground's median, the nearer side's
   double step_threshold = 0.0;  // what a step must reach (find_waterline's); NaN without brightness
+  // Log texture (WaterlineConfig::lid_texture_step) on the span minus on the wall beyond each end, and
+  // minus the flat ground's (the smaller side's, 0 unless both sides have one sign); NaN unknown.
+  double texture_left_step = kLevelSpanUnknown, texture_right_step = kLevelSpanUnknown;
+  double texture_ground_step = kLevelSpanUnknown;
+  bool other_material = false;  // level, flat, and its texture unlike the soil's on all three (lid_texture_step)
 };
 
 struct Waterline {
@@ -123,7 +141,7 @@ inline double waterline_step_threshold(const WaterlineConfig& config, double gro
 
 // Scratch reused between frames; contents unspecified.
 struct WaterlineWorkspace {
-  std::vector<double> log_brightness, step, values, x, z;
+  std::vector<double> log_brightness, log_texture, step, values, x, z;
 };
 
 // section: the cross-section extract_rut measured; brightness: mean grey level of the left image's
@@ -133,10 +151,12 @@ Waterline find_waterline(const CrossSection& section, const std::vector<double>&
                          const RutGeometry& geometry, const WaterlineConfig& config, WaterlineWorkspace& ws);
 
 // Looks for a floating lid as described at WaterlineConfig::lid_check, on the section extract_rut
-// measured (geometry: has_line and has_rut needed). The span's figures are filled whenever a span was
-// delimited, `found` only when every test passed.
+// measured (geometry: has_line and has_rut needed). texture: the left image's texture per bin as
+// WaterlineConfig::lid_texture_step defines it (NaN where unknown; empty: no texture test). The span's
+// figures are filled whenever a span was delimited, `found` and `other_material` only when their tests passed.
 LevelSpan find_level_span(const CrossSection& section, const std::vector<double>& brightness,
-                          const RutGeometry& geometry, const WaterlineConfig& config, WaterlineWorkspace& ws);
+                          const std::vector<double>& texture, const RutGeometry& geometry,
+                          const WaterlineConfig& config, WaterlineWorkspace& ws);
 
 // The section as it would be without the water: every bin deeper than the waterline is the apparent
 // point stereo triangulated from two rays bent at the surface; each of the two rays (from the left

@@ -107,9 +107,9 @@ struct FrameWork {
   RutMeasurement measurement;
   MeasurementDiagnostics diag;
   FrameCheckScratch checks;
-  // Standing water (StereoMeasurer::extract): the left strip's brightness per cross-section bin, the
-  // section as read through the water, and their scratch.
-  std::vector<double> bin_brightness;
+  // Standing water (StereoMeasurer::extract): the left strip's brightness and texture per cross-section
+  // bin, the section as read through the water, and their scratch.
+  std::vector<double> bin_brightness, bin_texture;
   std::vector<int> bin_pixels;
   CrossSection refracted;
   WaterlineWorkspace water;
