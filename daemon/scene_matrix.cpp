@@ -114,6 +114,27 @@ void add_water(std::vector<MatrixScene>& out) {
   }
 }
 
+// Covered water drawn again: floating debris is where trust is hardest won (a textured, level lid looks
+// like a rut's bottom to stereo), so beyond add_water's five lid scenes of each kind, 24 more, each kind
+// twice on each texture, half over clear water (the bottom seen through gaps in the lid).
+void add_lids(std::vector<MatrixScene>& out) {
+  constexpr std::array<const char*, 3> kKinds = {"foam", "leaves", "litter"};
+  Draw d(0x11D5);
+  for (int i = 0; i < 24; ++i) {
+    const std::string kind = kKinds[static_cast<std::size_t>(i % 3)];
+    const char* texture = kTextures[static_cast<std::size_t>((i / 3) % 4)];
+    const double level = d.uniform(5, 30);
+    const double depth = level + d.uniform(15, 40);
+    std::string water = fmt::format(" --water-level {:.1f}", level);
+    water += draw_option(d, "--debris", 0.4, 1.0, 2) + " --debris-kind " + kind;
+    water += d.chance(0.5) ? draw_option(d, "--water-attenuation", 0.005, 0.03, 3)
+                           : draw_option(d, "--water-attenuation", 0.03, 0.6, 3);
+    const std::string rig = rig_and_rut(d, texture, depth, 1300 + i);
+    out.push_back(
+        {fmt::format("lid-{}-{}-{:02d}", kind, texture, i), "spoiled", "water-" + kind, {"Water"}, rig + water});
+  }
+}
+
 void add_lens_faults(std::vector<MatrixScene>& out) {
   constexpr std::array<const char*, 5> kFaults = {"mud", "snow", "drops", "spray", "dust"};
   constexpr std::array<const char*, 3> kSides = {"left", "right", "both"};
@@ -247,6 +268,7 @@ void add_skew(std::vector<MatrixScene>& out) {
 std::vector<MatrixScene> scene_matrix() {
   std::vector<MatrixScene> scenes;
   add_water(scenes);
+  add_lids(scenes);
   add_lens_faults(scenes);
   add_dark(scenes);
   add_clean(scenes);

@@ -30,8 +30,8 @@ struct MatrixScene {
   std::string synth;  // rutd synth options besides the folder and --frames
 };
 
-// The default matrix: 40 water scenes, 15 lens faults, 4 at night, 64 clean scenes, 6 with tread, 6
-// skewed pairs.
+// The default matrix: 40 water scenes and 24 more under floating debris, 15 lens faults, 4 at night, 64
+// clean scenes, 6 with tread, 6 skewed pairs.
 std::vector<MatrixScene> scene_matrix();
 
 }  // namespace rutd
