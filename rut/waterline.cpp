@@ -277,7 +277,6 @@ LevelSpan find_level_span(const CrossSection& section, const std::vector<double>
   // beyond each end (step_window_mm of it) and against the flat ground's median on each side.
   if (static_cast<int>(texture.size()) == n) {
     const int w = std::max(2, static_cast<int>(std::lround(config.step_window_mm / dx)));
-    const int need = (w + 1) / 2;
     ws.log_texture.assign(static_cast<std::size_t>(n), kNaN);
     for (int i = 0; i < n; ++i) {
       const double t = texture[static_cast<std::size_t>(i)];
@@ -285,8 +284,10 @@ LevelSpan find_level_span(const CrossSection& section, const std::vector<double>
     }
     const auto& lt = ws.log_texture;
     const double span = window_mean(lt, a, b, std::max(1, (b - a + 1) / 2));
-    out.texture_left_step = span - window_mean(lt, a - w, a - 1, need);
-    out.texture_right_step = span - window_mean(lt, b + 1, b + w, need);
+    // Two textured bins of a wall will do: a steep wall beside a lid is often matched only a few bins
+    // down from it (foreshortened unlike in the two views, DIC loses the rest).
+    out.texture_left_step = span - window_mean(lt, a - w, a - 1, 2);
+    out.texture_right_step = span - window_mean(lt, b + 1, b + w, 2);
     out.texture_ground_step = smaller_same_sign(span - flat_ground_median(lt, ws.z, 0, lo - 3, ws.values),
                                                 span - flat_ground_median(lt, ws.z, hi + 3, n - 1, ws.values));
   }

@@ -236,6 +236,15 @@ TEST(WaterlineLid, OfAnotherMaterialWhereItsTextureIsUnlikeTheSoilsAllRound) {
   EXPECT_NEAR(foam.texture_right_step, std::log(3.0), 0.15);
   EXPECT_NEAR(foam.texture_ground_step, std::log(3.0), 0.15);
   EXPECT_TRUE(span(texture(1.0 / 3.0)).other_material);  // a smoother lid (still water with a film)
+  // A steep wall matched for two bins beside the lid, lost below (DIC): those two will do.
+  std::vector<double> steep = texture(3.0);
+  for (std::size_t i = 0; i < steep.size(); ++i) {
+    const double x = s.section.x0_mm + s.section.dx_mm * double(i);
+    if (x > foam.right_x_mm + 2.5 && x < foam.right_x_mm + 20.0) steep[i] = kNaN;
+  }
+  const LevelSpan lost = span(steep);
+  EXPECT_NEAR(lost.texture_right_step, std::log(3.0), 0.25);
+  EXPECT_TRUE(lost.other_material);
   // 2 times: log 0.69, under the 0.8 asked (a rut bottom compacted by the tyre).
   EXPECT_FALSE(span(texture(2.0)).other_material);
   EXPECT_FALSE(span(texture(1.0)).other_material);
