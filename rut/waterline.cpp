@@ -244,8 +244,8 @@ LevelSpan find_level_span(const CrossSection& section, const std::vector<double>
   // against the same statistic's spread over the ground (find_waterline's threshold). Without the
   // brightness the threshold is NaN, and no test on it passes.
   out.step_threshold = kNaN;
+  const int w = std::max(2, static_cast<int>(std::lround(config.step_window_mm / dx)));  // bins, both tests
   if (static_cast<int>(brightness.size()) == n) {
-    const int w = std::max(2, static_cast<int>(std::lround(config.step_window_mm / dx)));
     const int need = (w + 1) / 2;
     ws.log_brightness.assign(static_cast<std::size_t>(n), kNaN);
     for (int i = 0; i < n; ++i)
@@ -276,7 +276,6 @@ LevelSpan find_level_span(const CrossSection& section, const std::vector<double>
   // Texture (WaterlineConfig::lid_texture_step): the whole span's mean log texture against the wall
   // beyond each end (step_window_mm of it) and against the flat ground's median on each side.
   if (static_cast<int>(texture.size()) == n) {
-    const int w = std::max(2, static_cast<int>(std::lround(config.step_window_mm / dx)));
     ws.log_texture.assign(static_cast<std::size_t>(n), kNaN);
     for (int i = 0; i < n; ++i) {
       const double t = texture[static_cast<std::size_t>(i)];

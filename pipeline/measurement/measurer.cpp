@@ -305,9 +305,9 @@ void mark_water(RutGeometry& g, double level_mm, double left_x_mm, double right_
 
 // Per cross-section bin, of the left strip's pixels that reduce_to_cross_section averaged into it (the
 // same rule: the nearest bin to the point's X): the mean grey level, and the texture of
-// WaterlineConfig::lid_texture_step, sqrt(mean squared difference to the next row - 2 noise^2) / mean
-// grey level (noise_grey: the strip's noise deviation, grey levels; the root's argument is floored at a
-// quarter grey level squared); NaN where none. Returns the mean Y of those points, mm.
+// WaterlineConfig::lid_texture_step, sqrt(mean squared difference to the next row (the previous one on
+// the strip's last row) - 2 noise^2) / mean grey level (noise_grey: the strip's noise deviation, grey levels; the
+// root's argument is floored at a quarter grey level squared); NaN where none. Returns the mean Y of those points, mm.
 double bin_appearance(const cv::Mat& xyz, const cv::Mat& left, int first, const CrossSection& section,
                       double noise_grey, std::vector<double>& brightness, std::vector<double>& texture,
                       std::vector<int>& pixels) {
@@ -317,10 +317,11 @@ double bin_appearance(const cv::Mat& xyz, const cv::Mat& left, int first, const 
   pixels.assign(bins, 0);
   double y_sum = 0.0;
   long points = 0;
-  for (int r = 0; r < xyz.rows && first + r + 1 < left.rows; ++r) {
+  for (int r = 0; r < xyz.rows; ++r) {
     const cv::Vec3f* p = xyz.ptr<cv::Vec3f>(r);
     const std::uint8_t* g = left.ptr<std::uint8_t>(first + r);
-    const std::uint8_t* next = left.ptr<std::uint8_t>(first + r + 1);
+    const int neighbour = first + r + 1 < left.rows ? first + r + 1 : std::max(first + r - 1, 0);
+    const std::uint8_t* next = left.ptr<std::uint8_t>(neighbour);
     for (int u = 0; u < xyz.cols && u < left.cols; ++u) {
       const cv::Vec3f& q = p[u];
       if (!std::isfinite(q[0]) || !std::isfinite(q[1]) || !(q[2] > 0.0f)) continue;
