@@ -299,7 +299,28 @@ LevelSpan find_level_span(const CrossSection& section, const std::vector<double>
   const double walls = smaller_same_sign(out.texture_left_step, out.texture_right_step);
   const double all = smaller_same_sign(walls, out.texture_ground_step);
   out.other_material = level && config.lid_texture_step > 0.0 && std::abs(all) >= config.lid_texture_step;
+  const double bright = smaller_same_sign(smaller_same_sign(out.left_step, out.right_step), out.ground_step);
+  out.brighter_all_round =
+      level && config.lid_bright_factor > 0.0 && bright >= config.lid_bright_factor * out.step_threshold;
   return out;
+}
+
+double share_seen_below(const CrossSection& section, const RutGeometry& geometry, const Waterline& line,
+                        double margin_mm) {
+  if (!geometry.has_line || !(section.dx_mm > 0)) return 0.0;
+  const double m = geometry.line_m, c = geometry.line_c, norm = std::sqrt(1.0 + m * m);
+  const int n = static_cast<int>(section.z_mm.size());
+  const int from = std::max(0, static_cast<int>(std::ceil((line.left_x_mm - section.x0_mm) / section.dx_mm)));
+  const int to = std::min(n - 1, static_cast<int>(std::floor((line.right_x_mm - section.x0_mm) / section.dx_mm)));
+  int valid = 0, below = 0;
+  for (int i = from; i <= to; ++i) {
+    const double z = section.z_mm[static_cast<std::size_t>(i)];
+    if (std::isnan(z)) continue;
+    const double x = section.x0_mm + section.dx_mm * i;
+    ++valid;
+    below += (z - (m * x + c)) / norm > line.level_mm + margin_mm;
+  }
+  return valid > 0 ? double(below) / valid : 0.0;
 }
 
 void refract_section(const CrossSection& apparent, const RutGeometry& geometry, double level_mm, double n,

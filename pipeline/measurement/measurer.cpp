@@ -351,12 +351,13 @@ double bin_appearance(const cv::Mat& xyz, const cv::Mat& left, int first, const 
 }  // namespace
 
 // Standing water (rut/waterline.hpp): a level span at the bottom, not much rougher than the ground, lit
-// unlike a wall beside it is a floating lid, refused first; with a waterline on both walls, a profile
-// that stops at it (a lid, opaque water) hides the bottom and is refused; one that goes on below it is the bottom seen
-// through the water, measured again on the section corrected for refraction and published flagged Water, its
-// uncertainty widened by the refraction model's (the index, and the waterline's level). With no waterline,
-// a level span unlike the flat ground is a lid after all (LevelSpan::unlike_ground): the bottom seen
-// through clear water is unlike the ground too, but under a waterline.
+// unlike a wall beside it, textured unlike the soil or brighter than it all round is a floating lid,
+// refused first; with a waterline on both walls, a profile that stops at it (a lid, opaque water) or
+// follows it over most of the span (a lid with gaps) hides the bottom and is refused; one that goes on
+// below it is the bottom seen through the water, measured again on the section corrected for refraction and published
+// flagged Water, its uncertainty widened by the refraction model's (the index, and the waterline's level). With no
+// waterline, a level span unlike the flat ground is a lid after all (LevelSpan::unlike_ground): the bottom seen through
+// clear water is unlike the ground too, but under a waterline.
 void StereoMeasurer::read_through_water(FrameWork& w, RutWorkspace& workspace, const cv::Mat& measured,
                                         int first) const {
   RutMeasurement& m = w.measurement;
@@ -374,8 +375,9 @@ void StereoMeasurer::read_through_water(FrameWork& w, RutWorkspace& workspace, c
     mark_water(workspace.geometry, lid.level_mm, lid.left_x_mm, lid.right_x_mm);
     m.status = RutStatus::BottomNotSeen;
   };
-  // Lit unlike a wall, or of another material than the soil: floating debris at that level.
-  if (lid.found || lid.other_material) {
+  // Lit unlike a wall, of another material than the soil, or brighter all round than soil there can be:
+  // floating debris at that level.
+  if (lid.found || lid.other_material || lid.brighter_all_round) {
     refuse_as_lid();
     return;
   }
@@ -418,7 +420,11 @@ void StereoMeasurer::read_through_water(FrameWork& w, RutWorkspace& workspace, c
   // looking down): a span brighter than the walls above its waterline is a lid at that level, and what
   // stereo finds deeper is a gap in it or a leak of the matching windows, not the bottom.
   const bool brightens = line.left_step > 0.0 && line.right_step > 0.0;
-  if (brightens || seen_below < std::max(c.min_seen_below_mm, 2.0 * std::hypot(u, line.level_u_mm))) {
+  const double margin = std::max(c.min_seen_below_mm, 2.0 * std::hypot(u, line.level_u_mm));
+  // So is one that follows the surface over most of its width (WaterlineConfig::min_share_seen_below):
+  // a lid, the bottom glimpsed through its gaps.
+  if (brightens || seen_below < margin ||
+      share_seen_below(w.section, workspace.geometry, line, margin) < c.min_share_seen_below) {
     mark(workspace.geometry);
     m.status = RutStatus::BottomNotSeen;
     return;

@@ -142,6 +142,24 @@ const Case kCases[] = {
      "--height 357 --roll 2.2 --seed 1002 --water-level 5.1 --debris 0.92 --debris-kind foam "
      "--water-attenuation 0.025",
      4, "Water", 1.0, true},
+    // Foam on 18 mm of turbid water in a 42 mm sand rut, brighter than both walls and than the flat
+    // ground, each by 0.7 times what a single step must reach (under the 1.5 times one step needs, no
+    // waterline pair): a bottom brighter all round than any soil there is lit. One frame of four was
+    // published OK 17.9 mm shallow.
+    {"foam_lid_brighter_all_round_sand",
+     "--texture sand --depth 42.3 --width 206 --bottom-width 101 --pile-left 10.0 --pile-right 14.8 --baseline 85 "
+     "--height 405 --roll -2.6 --seed 1018 --water-level 17.9 --debris 0.80 --debris-kind foam "
+     "--water-attenuation 0.379",
+     4, "Water", 1.0, true},
+    // Foam covering two thirds of 13 mm of clear water in a 47 mm grass rut: the waterline found on both
+    // walls, the profile below it following the foam over 83-100 % of the span, the bottom glimpsed
+    // through gaps 0.4-2.4 mm deeper; read through the surface as clear water, two frames of four were
+    // published OK 9.7-10.3 mm shallow.
+    {"foam_lid_gaps_clear_grass",
+     "--texture grass --depth 46.5 --width 164 --bottom-width 75 --pile-left 6.3 --pile-right 8.0 --baseline 93 "
+     "--height 405 --roll 3.1 --seed 1309 --water-level 13.5 --debris 0.65 --debris-kind foam "
+     "--water-attenuation 0.007",
+     4, "Water", 1.0, true},
     // Clear water whose wet walls darken less, against a blotchy mud's or grass's own texture, than a
     // waterline asks (2-3.8 times the ground's spread, against 4), the whole span below them darker by 4
     // times it and more: read through as a waterline, published with Water within 1 mm (were published

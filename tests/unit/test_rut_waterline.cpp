@@ -213,6 +213,52 @@ TEST(WaterlineLid, NotFoundOnABottomRougherThanTheGround) {  // clods lit unlike
   EXPECT_TRUE(find_level_span(smooth.section, smooth.brightness, {}, smooth.ws.geometry, WaterlineConfig{}, ws).found);
 }
 
+// A lid brighter all round (WaterlineConfig::lid_bright_factor): log 0.18 over the walls and the ground on
+// both sides, under what one step (1.5 x 0.22) or the ground alone (1.1 x 0.22) needs, over 0.5 x 0.22.
+TEST(WaterlineLid, BrighterThanBothWallsAndTheGroundIsNotSoil) {
+  LidScene s(25.0, 1.2, 1.2);
+  ASSERT_TRUE(depth_found_for_test(s.m.status));
+  WaterlineWorkspace ws;
+  const auto span = [&](const LidScene& scene, const std::vector<double>& brightness, const WaterlineConfig& c) {
+    return find_level_span(scene.section, brightness, {}, scene.ws.geometry, c, ws);
+  };
+  const LevelSpan lid = span(s, s.brightness, WaterlineConfig{});
+  EXPECT_FALSE(lid.found);
+  EXPECT_FALSE(lid.unlike_ground);
+  EXPECT_NEAR(lid.left_step, std::log(1.2), 0.05);
+  EXPECT_NEAR(lid.right_step, std::log(1.2), 0.05);
+  EXPECT_NEAR(lid.ground_step, std::log(1.2), 0.05);
+  EXPECT_TRUE(lid.brighter_all_round);
+  WaterlineConfig off;
+  off.lid_bright_factor = 0.0;
+  EXPECT_FALSE(span(s, s.brightness, off).brighter_all_round);
+  // Darker all round: the rut's own shade, not judged.
+  LidScene dark(25.0, 1.0 / 1.2, 1.0 / 1.2);
+  EXPECT_FALSE(span(dark, dark.brightness, WaterlineConfig{}).brighter_all_round);
+  // Brighter than one side only.
+  LidScene one(25.0, 1.2, 1.0);
+  EXPECT_FALSE(span(one, one.brightness, WaterlineConfig{}).brighter_all_round);
+  // Brighter than the ground but lit like its walls: soil cut down to a paler layer, walls and bottom.
+  std::vector<double> paler = s.brightness;
+  const RutGeometry& g = s.ws.geometry;
+  int walls = 0;
+  for (std::size_t i = 0; i < paler.size(); ++i) {
+    const double x = s.section.x0_mm + s.section.dx_mm * double(i);
+    const double depth = z_at_x(s.base.shape, s.base.view, x) - s.base.view.ground_z;
+    if (x > g.left_x_mm && x < g.right_x_mm && depth > 2.0 && depth <= 25.0) {
+      paler[i] *= 1.2;
+      ++walls;
+    }
+  }
+  ASSERT_GT(walls, 20);
+  const LevelSpan cut = span(s, paler, WaterlineConfig{});
+  EXPECT_NEAR(cut.left_step, 0.0, 0.05);
+  EXPECT_FALSE(cut.brighter_all_round);
+  // Brighter by log 0.05: within the soil's own variation.
+  LidScene faint(25.0, 1.05, 1.05);
+  EXPECT_FALSE(span(faint, faint.brightness, WaterlineConfig{}).brighter_all_round);
+}
+
 // Foam on snow: lit like the soil (no brightness step anywhere), but another material. Texture per bin
 // (WaterlineConfig::lid_texture_step): the soil's 0.05 with a log-normal scatter of 0.1, the lid's
 // `factor` times that.
@@ -300,6 +346,55 @@ cv::Point2d apparent_point(cv::Point2d p, double b, double surface) {
   const double ax = sl.x, az = sl.y, bx = sr.x - b, bz = sr.y;
   const double t = (b * bz) / (ax * bz - az * bx);
   return {t * ax, t * az};
+}
+
+// The share of the submerged span seen below the surface (WaterlineConfig::min_share_seen_below), on a
+// section 10 mm below a level ground at Z 400 between waterlines at X -50 and 50 (101 bins).
+TEST(Waterline, ShareSeenBelowCountsTheBinsDeeperThanTheSurface) {
+  RutGeometry g;
+  g.has_line = true;
+  g.line_c = 400.0;
+  Waterline line;
+  line.found = true;
+  line.level_mm = 10.0;
+  line.left_x_mm = -50.0;
+  line.right_x_mm = 50.0;
+  const auto section = [](auto depth) {
+    CrossSection s;
+    s.x0_mm = -80.0;
+    for (int i = 0; i <= 160; ++i) {
+      s.z_mm.push_back(400.0 + depth(-80.0 + i));
+      s.count.push_back(1);
+    }
+    return s;
+  };
+  // Clear water: the bottom seen 8 mm below the surface from X -40 to 40, walls of slope 0.8 up to the
+  // waterlines; deeper than 1 mm below the surface where |X| <= 48 (97 bins).
+  const CrossSection clear =
+      section([](double x) { return std::abs(x) <= 40.0 ? 18.0 : 10.0 + 0.8 * (50.0 - std::abs(x)); });
+  EXPECT_NEAR(share_seen_below(clear, g, line, 1.0), 97.0 / 101.0, 1e-9);
+  EXPECT_NEAR(share_seen_below(clear, g, line, 9.0), 0.0, 1e-9);  // 8 mm deep is not deeper than 9
+  // A lid with one gap 10 bins wide (X 0-9) where the matcher reaches 2 mm deeper.
+  const CrossSection lid = section([](double x) { return x >= 0.0 && x <= 9.0 ? 12.0 : 10.0; });
+  EXPECT_NEAR(share_seen_below(lid, g, line, 1.0), 10.0 / 101.0, 1e-9);
+  EXPECT_EQ(share_seen_below(lid, g, line, 2.5), 0.0);  // the margin counts: 2 mm is not deeper than 2.5
+  // Unmatched bins count neither way: the lid's bins outside the gap lost, the share is the gap's.
+  CrossSection holes = lid;
+  for (int i = 30; i <= 130; ++i)
+    if (i < 80 || i > 89) holes.z_mm[static_cast<std::size_t>(i)] = kNaN;
+  EXPECT_NEAR(share_seen_below(holes, g, line, 1.0), 1.0, 1e-9);
+  // A ground line tilted by 0.1: depths are perpendicular to it.
+  RutGeometry tilted = g;
+  tilted.line_m = 0.1;
+  const double norm = std::sqrt(1.01);
+  CrossSection t = lid;
+  for (int i = 0; i <= 160; ++i) {
+    const double x = -80.0 + i;
+    t.z_mm[static_cast<std::size_t>(i)] = 400.0 + 0.1 * x + norm * (x >= 0.0 && x <= 9.0 ? 12.0 : 10.0);
+  }
+  EXPECT_NEAR(share_seen_below(t, tilted, line, 1.0), 10.0 / 101.0, 1e-9);
+  g.has_line = false;
+  EXPECT_EQ(share_seen_below(clear, g, line, 1.0), 0.0);
 }
 
 TEST(Waterline, RefractionRecoversTheBottomRayByRay) {

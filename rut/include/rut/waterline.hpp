@@ -38,6 +38,13 @@ struct WaterlineConfig {
   // level_tolerance_mm plus what two bins of lateral uncertainty each (the capillary fringe above a
   // waterline darkens the soil gradually) give on the walls' slopes.
   double level_tolerance_mm = 1.0;
+  // The bottom is seen through the water on at least this share of the submerged span's bins (deeper
+  // than the waterline by what min_seen_below_mm and the uncertainties ask); less, and the surface is
+  // mostly a lid whose level the profile follows, the bottom glimpsed through gaps where the matching
+  // windows blend lid and bottom into a shallower one (scene matrix: leaves, litter and foam over clear
+  // water, 0-0.17 with the corrected depth 1.3-10 mm short; the bottom seen through clear water, open
+  // or with floating debris, 0.34-0.98). 0: off.
+  double min_share_seen_below = 0.25;
   // Steps closer than this below the ground line are the rut's rim (shading at the crest), not water.
   double min_level_mm = 2.0;
   // The bottom is seen through the water when the profile reaches deeper than the waterline by more
@@ -93,6 +100,15 @@ struct WaterlineConfig {
   // (22 frames of 9 scenes), the other lids less. The walls' windows need two textured bins only: a
   // steep wall beside a lid is often matched for a few bins down from it, DIC losing the rest. 0: off.
   double lid_texture_step = 0.8;
+  // A level span brighter than the walls beyond both its ends and than the flat ground on both sides
+  // of the rut, each by lid_bright_factor times the step threshold, is not the rut's soil
+  // (LevelSpan::brighter_all_round): the bottom of a rut sees less of the sky than the open ground does
+  // and is shaded by its walls, so lit soil there is at most as bright as the ground; what is brighter
+  // all round is another surface (foam, pale litter, a leaf lid). Soil cut down to a paler layer is
+  // paler on its walls too, and a bottom darker all round is the rut's own shade, so only brightening
+  // is judged. In the scene matrix, clean and tread-marked bottoms reach 0.36 times the threshold on
+  // all three together; lids 0.5-1.8. 0: off.
+  double lid_bright_factor = 0.5;
   bool lid_check = true;
   double lid_tolerance_mm = 0.5;
   double lid_min_width_mm = 10.0;
@@ -120,7 +136,8 @@ struct LevelSpan {
   // minus the flat ground's (the smaller side's, 0 unless both sides have one sign); NaN unknown.
   double texture_left_step = kLevelSpanUnknown, texture_right_step = kLevelSpanUnknown;
   double texture_ground_step = kLevelSpanUnknown;
-  bool other_material = false;  // level, flat, and its texture unlike the soil's on all three (lid_texture_step)
+  bool other_material = false;      // level, flat, and its texture unlike the soil's on all three (lid_texture_step)
+  bool brighter_all_round = false;  // level, flat, and brighter than both walls and the ground (lid_bright_factor)
 };
 
 struct Waterline {
@@ -159,6 +176,11 @@ Waterline find_waterline(const CrossSection& section, const std::vector<double>&
 LevelSpan find_level_span(const CrossSection& section, const std::vector<double>& brightness,
                           const std::vector<double>& texture, const RutGeometry& geometry,
                           const WaterlineConfig& config, WaterlineWorkspace& ws);
+
+// Of the valid bins between the two waterlines (line.left_x_mm..right_x_mm), the share deeper than the
+// waterline by more than margin_mm (WaterlineConfig::min_share_seen_below); 0 where none is valid.
+double share_seen_below(const CrossSection& section, const RutGeometry& geometry, const Waterline& line,
+                        double margin_mm);
 
 // The section as it would be without the water: every bin deeper than the waterline is the apparent
 // point stereo triangulated from two rays bent at the surface; each of the two rays (from the left
