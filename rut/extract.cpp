@@ -5,11 +5,11 @@
 //  2. Reference profile: a line with the median local slope through the 40th percentile of the
 //     detrended profile, so neither the rut nor the piles pull it (the mean profile of the paper would
 //     be dragged into a large rut and tilted by an off-centre one).
-//  3. Rut and piles relative to the current line: the deepest smoothed point is the rut bottom; walking
-//     outwards from it to the ground-line crossings (the rut opening) and on over the pile (the Z
-//     minimum, i.e. the turning point closest to the camera) down to its outer foot (where it meets
-//     the line or stops descending) gives the disturbed zone. A side without a pile simply ends at the
-//     crossing.
+//  3. Rut and piles relative to the current line: the deepest smoothed point of the bins measured is
+//     the rut bottom; walking outwards from it to the ground-line crossings (the rut opening) and on
+//     over the pile (the Z minimum, i.e. the turning point closest to the camera) down to its outer
+//     foot (where it meets the line or stops descending) gives the disturbed zone. A side without a
+//     pile simply ends at the crossing.
 //  4. Ground line: robust (Tukey) line fit to low-gradient bins outside the disturbed zone. Steps 3-4
 //     run twice, the second time from the fitted line.
 //  5. Figures per core/rut_measurement.hpp, from fits rather than extreme samples where noise would bias
@@ -405,7 +405,12 @@ RutMeasurement extract_rut(const CrossSection& section, const RutConfig& params,
   // Step 5.
   heights(ws.smooth, p.grid, line, ws.h_fit);
   heights(section.z_mm, p.grid, line, ws.h_raw);
-  const int k = argmin_valid(ws.h_fit, 0, n - 1);
+  // The deepest smoothed point among the bins the section measured: the smoother's local fits carry a
+  // wall's last bins on into a gap, and a bin they reach there is no measurement.
+  int k = -1;
+  for (int i = 0; i < n; ++i) {
+    if (!std::isnan(ws.h_fit[i]) && !std::isnan(ws.h_raw[i]) && (k < 0 || ws.h_fit[i] < ws.h_fit[k])) k = i;
+  }
   if (k < 0 || -ws.h_fit[k] < min_depth) {
     out.status = RutStatus::NoRut;
     return out;

@@ -249,6 +249,39 @@ TEST(ExtractRut, DeepestPointIsNeverPlacedBeyondTheSamples) {
   EXPECT_NE(m.status, RutStatus::Ok) << m.depth_mm;  // the far wall unseen: it could go deeper
 }
 
+// The deepest point is a bin the section measured. A flat bottom's last bins before a 6 mm hole descend
+// into it (a DIC window straddling an occlusion's edge), and a few stray bins beyond the hole lie 2.5 mm
+// deeper still: the smoother's local fits carry the descent on into the hole, where a depth was once
+// taken from the extrapolation and the stray bins, 2.2 mm deep of the truth and published OK.
+TEST(ExtractRut, DeepestPointIsABinTheSectionMeasured) {
+  RutShape s;
+  s.depth = 40.0;
+  const View v;
+  CrossSection c = make_section(s, v, kX0, kBins, 1.0, 0.1, 12);
+  const double hook[] = {0.3, 0.8, 1.5};  // mm deeper, at u = 0..2
+  int hidden = 0, stray = 0;
+  for (int i = 0; i < kBins; ++i) {
+    const int x = static_cast<int>(std::lround(kX0 + i));
+    if (x >= 0 && x <= 2) c.z_mm[static_cast<std::size_t>(i)] += hook[x];
+    if ((x >= 3 && x <= 8) || x == 10 || (x >= 15 && x <= 30)) {
+      c.z_mm[static_cast<std::size_t>(i)] = kNaN;
+      ++hidden;
+    } else if (x >= 9 && x <= 14) {
+      c.z_mm[static_cast<std::size_t>(i)] += 2.5;
+      ++stray;
+    }
+  }
+  ASSERT_EQ(hidden, 23);
+  ASSERT_EQ(stray, 5);
+  RutWorkspace ws;
+  const RutMeasurement m = extract_rut(c, RutConfig{}, ws);
+  ASSERT_TRUE(ws.geometry.has_rut) << to_string(m.status);
+  const auto k = static_cast<std::size_t>(std::lround((ws.geometry.deepest_x_mm - c.x0_mm) / c.dx_mm));
+  EXPECT_FALSE(std::isnan(c.z_mm[k])) << ws.geometry.deepest_x_mm;
+  // Refused or right: the stray bins may still sway the depth, never into a wrong OK.
+  EXPECT_TRUE(m.status != RutStatus::Ok || std::abs(m.depth_mm - s.depth) <= 1.0) << m.depth_mm;
+}
+
 TEST(ExtractRut, FlatGroundIsNoRut) {
   RutShape s;
   s.depth = 0.0;
