@@ -398,9 +398,12 @@ void StereoMeasurer::read_through_water(FrameWork& w, RutWorkspace& workspace, c
     if (weak.found && weak.left_step < 0.0 && weak.right_step < 0.0 &&
         weak.left_x_mm - g.left_x_mm >= c.step_window_mm && g.right_x_mm - weak.right_x_mm >= c.step_window_mm) {
       line = weak;
-      // The whole submerged span darker by what a confirmed line's steps must reach: the water is
-      // there, and the steps, short of it on one wall or both, only place its level.
-      candidate = !(-weak.submerged_step >= waterline_step_threshold(c, weak.ground_spread));
+      // The whole submerged span darker by what a confirmed line's steps must reach, than the walls
+      // above it and than the dry flat ground on both sides of the rut (a mud blotched on a larger scale
+      // than the rut darkens a span against its walls by chance): the water is there, and the steps,
+      // short of it on one wall or both, only place its level.
+      const double need = waterline_step_threshold(c, weak.ground_spread);
+      candidate = !(-weak.submerged_step >= need && -weak.submerged_ground_step >= need);
     }
   }
   if (!line.found) {

@@ -160,6 +160,16 @@ const Case kCases[] = {
      "--height 405 --roll 3.1 --seed 1309 --water-level 13.5 --debris 0.65 --debris-kind foam "
      "--water-attenuation 0.007",
      4, "Water", 1.0, true},
+    // A clean 18 mm mud rut whose interior fell on the dark blotches of a mud textured at a larger scale
+    // than the rut: a pair of weak darkening steps 5 mm below the ground, the whole span between them
+    // darker than the walls above by a waterline's threshold, but no darker than the flat ground beside
+    // the rut on one side. Read through as clear water, frame 5 was published OK 4.6 mm deep of the
+    // truth; under water the span would be darker than the dry ground on both sides.
+    {"clean_mud_dark_rut",
+     "--texture mud --depth 18.2 --width 151 --bottom-width 66 --pile-left 10.6 --pile-right 4.3 --offset "
+     "21 --baseline 100 --height 428 --hfov 60 --roll -2.4 --pitch 6.4 --noise 1.82 --speed 1443 "
+     "--right-response 1.035 --seed 2001 --exposure 2.50",
+     6, "Water", 0.0, false, 4},
     // Clear water whose wet walls darken less, against a blotchy mud's or grass's own texture, than a
     // waterline asks (2-3.8 times the ground's spread, against 4), the whole span below them darker by 4
     // times it and more: read through as a waterline, published with Water within 1 mm (were published

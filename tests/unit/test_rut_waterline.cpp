@@ -62,6 +62,18 @@ TEST(Waterline, FoundWhereBothWallsDarkenAtOneHeight) {
   EXPECT_LT(w.right_step, 0.0);
   EXPECT_LT(w.left_x_mm, 0.0);
   EXPECT_GT(w.right_x_mm, 0.0);
+  // The span under it is darker than the dry flat ground on both sides as well...
+  EXPECT_NEAR(w.submerged_ground_step, std::log(0.6), 0.1);
+  // ... unless the ground is as dark (a soil blotched on a larger scale than the rut).
+  std::vector<double> dark_ground = s.brightness(25.0, 0.6, 0.05);
+  for (std::size_t i = 0; i < dark_ground.size(); ++i) {
+    const double x = s.section.x0_mm + s.section.dx_mm * double(i);
+    if (x < s.ws.geometry.left_x_mm || x > s.ws.geometry.right_x_mm) dark_ground[i] *= 0.6;
+  }
+  const Waterline blotched = find_waterline(s.section, dark_ground, s.ws.geometry, WaterlineConfig{}, ws);
+  ASSERT_TRUE(blotched.found);
+  EXPECT_NEAR(blotched.submerged_step, w.submerged_step, 1e-9);
+  EXPECT_NEAR(blotched.submerged_ground_step, 0.0, 0.1);
   // A lid brighter than the soil: the same rule, the other sense.
   const Waterline lid = find_waterline(s.section, s.brightness(25.0, 1.6, 0.05), s.ws.geometry, WaterlineConfig{}, ws);
   ASSERT_TRUE(lid.found);

@@ -63,7 +63,10 @@ struct WaterlineConfig {
   // darkens a band, not the span: 0.1-0.17). Where the whole submerged span darkens by what a waterline's
   // steps must reach (step_over_ground times the spread, and min_step), the water is there and the
   // steps only place its level: the candidate is a waterline (rendered clear water: 4.1-5.0 times; clean
-  // ruts' candidates: at most 3.7, and all but one at the bottom, where nothing is read below). Else the
+  // ruts' candidates: at most 3.7, and all but one at the bottom, where nothing is read below), where
+  // the span is as much darker than the flat ground on both sides of the rut too
+  // (Waterline::submerged_ground_step: a mud blotched on a larger scale than the rut darkened a clean
+  // rut's span 4.4 times against its walls, and was read through as 13 mm of water). Else the
   // frame is read both ways and refused where the two readings differ by more than its depth
   // uncertainty allows (StereoMeasurer). 0: off.
   double candidate_step_over_ground = 2.0;
@@ -149,7 +152,9 @@ struct Waterline {
   double left_step = 0.0;  // log brightness ratio (below / above) at each
   double right_step = 0.0;
   double submerged_step = 0.0;  // mean log brightness between the two, minus on the walls just above
-  double ground_spread = 0.0;   // robust spread of the step statistic over the ground
+  // ... minus the flat ground's median on each side of the rut, the smaller (0 unless both have one sign)
+  double submerged_ground_step = 0.0;
+  double ground_spread = 0.0;  // robust spread of the step statistic over the ground
 };
 
 // What a brightness step must reach (find_waterline, find_level_span): min_step, and step_over_ground
