@@ -117,9 +117,10 @@ Waterline find_waterline(const CrossSection& section, const std::vector<double>&
   constexpr int kCapacity = 16;
   Step left[kCapacity], right[kCapacity];
   // Walking down each wall: on the left wall down is +X, on the right wall -X (the step's sign flips).
-  // The flat ground beyond the opening on each side (3 bins clear of its ends), for submerged_ground_step.
-  const int ground_left = static_cast<int>(std::ceil((geometry.left_x_mm - section.x0_mm) / dx)) - 3;
-  const int ground_right = static_cast<int>(std::floor((geometry.right_x_mm - section.x0_mm) / dx)) + 3;
+  // The flat ground's median log brightness beyond the opening on each side (3 bins clear of its ends),
+  // for submerged_ground_step: taken once, when the first pair is accepted (most frames have none).
+  double ground_left = kNaN, ground_right = kNaN;
+  bool ground_taken = false;
   // The walls meet at the middle of the opening (a lid's deepest point may lie anywhere on it).
   const double middle = 0.5 * (geometry.left_x_mm + geometry.right_x_mm);
   const int nl = candidates(geometry.left_x_mm, middle, +1.0, left, kCapacity);
@@ -154,9 +155,14 @@ Waterline find_waterline(const CrossSection& section, const std::vector<double>&
       out.left_step = l.step;
       out.right_step = r.step;
       out.submerged_step = submerged - above;
-      out.submerged_ground_step =
-          smaller_same_sign(submerged - flat_ground_median(ws.log_brightness, ws.z, 0, ground_left, ws.values),
-                            submerged - flat_ground_median(ws.log_brightness, ws.z, ground_right, n - 1, ws.values));
+      if (!ground_taken) {
+        const int lo = static_cast<int>(std::ceil((geometry.left_x_mm - section.x0_mm) / dx));
+        const int hi = static_cast<int>(std::floor((geometry.right_x_mm - section.x0_mm) / dx));
+        ground_left = flat_ground_median(ws.log_brightness, ws.z, 0, lo - 3, ws.values);
+        ground_right = flat_ground_median(ws.log_brightness, ws.z, hi + 3, n - 1, ws.values);
+        ground_taken = true;
+      }
+      out.submerged_ground_step = smaller_same_sign(submerged - ground_left, submerged - ground_right);
     }
   }
   return out;
