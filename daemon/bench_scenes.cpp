@@ -104,6 +104,7 @@ SceneOutcome measure_scene(const MatrixScene& scene, const BenchScenesOptions& o
   MeasureOptions mo;
   mo.engine = o.engine;
   mo.no_dic = !o.dic;
+  mo.config.strip.guards = o.guards;
   StereoMeasurer measurer(renderer.calibration(), resolve_measure_options(mo));
   const std::uint8_t expected = expected_bits(scene);
   SceneOutcome out;

@@ -38,6 +38,7 @@ struct Options {
   std::string engine = "sgbm3way";
   std::string size = "640x480";
   bool json = false;
+  int guards = 2;  // guard strips of the strip runs (StripConfig::guards)
 };
 // Counts what the pipeline published and compares each OK depth with the renderer's truth of the pair it
 // came from (the cycling source delivers frames[seq % frames.size()]).
@@ -159,6 +160,7 @@ int run_bench(const Options& o) {
   MeasurerConfig strip;
   strip.engine = *parse_engine(o.engine);
   strip.dic = o.dic;
+  strip.strip.guards = o.guards;
   MeasurerConfig full = strip;
   full.strip = StripConfig{p.rig.image_size.height, 0};
   run("strip", "throughput", renderer, frames, strip, true, 0, o);
@@ -187,6 +189,10 @@ void add_bench_command(CLI::App& app, int& exit_code) {
       ->check(CLI::IsMember({"bm", "sgbm", "sgbm3way", "hh4", "hh", "gpu", "sgmref"}))
       ->capture_default_str();
   cmd->add_option("--size", o->size, "Image size WIDTHxHEIGHT")->capture_default_str();
+  cmd->add_option("--guard-strips", o->guards,
+                  "Guard strips measured on the frames the strip finds OK, to look for water (0: none)")
+      ->check(CLI::Range(0, 2))
+      ->capture_default_str();
   auto no_dic = std::make_shared<bool>(false);
   cmd->add_flag("--no-dic", *no_dic, "No sub-pixel refinement");
   cmd->add_flag("--json", o->json,
@@ -230,6 +236,7 @@ void add_bench_command(CLI::App& app, int& exit_code) {
       scenes->engine = o->engine;
       scenes->dic = o->dic;
       scenes->json = o->json;
+      scenes->guards = o->guards;
       exit_code = run_bench_scenes(*scenes);
     } else if (!pair_files->empty()) {
       pair->left = (*pair_files)[0];

@@ -265,9 +265,10 @@ std::string parse_first_row(const std::string& t, std::optional<int>& row) {
 
 void read_strip(Section s, StripConfig& strip) {
   std::optional<int> first_row = strip.first_row;
-  s.get<int>("rows", strip.rows, in_range(0, 4096)).parse("first_row", [&](const std::string& t) {
-    return parse_first_row(t, first_row);
-  });
+  s.get<int>("rows", strip.rows, in_range(0, 4096))
+      .parse("first_row", [&](const std::string& t) { return parse_first_row(t, first_row); })
+      .get<int>("guards", strip.guards, in_range(0, 2))
+      .get<double>("guard_spacing", strip.guard_spacing, in_range(0.05, 0.5));
   if (first_row && strip.rows == 0) s.fail("first_row", "needs rows too");
   strip.first_row = first_row;
   s.finish();

@@ -23,6 +23,11 @@ void add_measure_options(CLI::App& cmd, MeasureOptions& o) {
                                              "--strip-row0", "replaced by --strip-first-row (centred or a row number)");
                                        })
       ->group("");
+  cmd.add_option("--guard-strips", o.config.strip.guards,
+                 "Guard strips (0..2) measured a quarter of the image height above and below the strip on the frames "
+                 "it finds OK; a frame is refused where one finds water it did not")
+      ->check(CLI::Range(0, 2))
+      ->capture_default_str();
   cmd.add_option("--near-mm", o.config.range.near_mm, "Nearest plausible camera-to-terrain distance, mm")
       ->check(CLI::Range(20.0, 20000.0))
       ->capture_default_str();

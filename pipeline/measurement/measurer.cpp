@@ -4,7 +4,9 @@
 #include <chrono>
 #include <cmath>
 #include <cstdint>
+#include <cstdlib>
 #include <limits>
+#include <mutex>
 #include <stdexcept>
 #include <string>
 
@@ -13,6 +15,12 @@
 #include "engines/engine_factory.hpp"
 
 namespace rutd {
+
+struct StereoMeasurer::Guards {
+  std::mutex mutex;
+  std::vector<StereoMeasurer> strips;
+};
+
 namespace {
 
 using Clock = std::chrono::steady_clock;
@@ -70,6 +78,59 @@ StereoMeasurer::StereoMeasurer(const StereoCalibration& calibration, const Measu
   // measure()'s engine is made on its first call: the real-time pipeline and replay make their own, and a
   // GPU engine made here too would open the device twice. Bad parameters still throw here.
   check_engine(config_.engine, config_.engine_config);
+  if (config_.water.enabled && config_.strip.guards > 0) {
+    if (config_.strip.guards > 2 || !(config_.strip.guard_spacing > 0.0 && config_.strip.guard_spacing <= 0.5))
+      throw std::invalid_argument("strip guards must be 0..2 and guard_spacing within (0, 0.5]");
+    const int height = calibration.image_size.height;
+    const int offset = static_cast<int>(std::lround(config_.strip.guard_spacing * height));
+    auto guards = std::make_unique<Guards>();
+    for (int i = 0; i < config_.strip.guards; ++i) {
+      const int row0 = strip_.row0 + (i == 0 ? -offset : offset);
+      if (row0 < 0 || row0 + strip_.rows > height || std::abs(row0 - strip_.row0) < strip_.rows) continue;
+      MeasurerConfig g = config_;
+      g.strip = StripConfig{.rows = strip_.rows, .first_row = row0, .guards = 0};
+      // A GPU engine's guards match on the CPU: a device opened twice more for a strip each is dearer
+      // than the CPU's few milliseconds, and the GPU's fallback is the match stage's to log.
+      if (g.engine == EngineKind::Gpu) g.engine = EngineKind::Sgbm3Way;
+      guards->strips.emplace_back(calibration, g);
+    }
+    if (!guards->strips.empty()) guards_ = std::move(guards);
+  }
+}
+
+StereoMeasurer::~StereoMeasurer() = default;
+StereoMeasurer::StereoMeasurer(StereoMeasurer&&) noexcept = default;
+StereoMeasurer& StereoMeasurer::operator=(StereoMeasurer&&) noexcept = default;
+
+std::vector<StripRoi> StereoMeasurer::guard_strips() const {
+  std::vector<StripRoi> out;
+  if (guards_)
+    for (const StereoMeasurer& g : guards_->strips) out.push_back(g.strip());
+  return out;
+}
+
+void StereoMeasurer::check_guards(FrameWork& w) const {
+  RutMeasurement& m = w.measurement;
+  if (!guards_ || m.status != RutStatus::Ok) return;
+  const bool read_through = (m.conditions & kConditionWater) != 0;
+  const std::lock_guard lock(guards_->mutex);
+  for (StereoMeasurer& guard : guards_->strips) {
+    const RutMeasurement g = guard.measure(w.frame.left, w.frame.right, w.frame.skew_ns);
+    ++w.diag.guard_strips;
+    // Read through clear water here, the bottom must not be hidden there: a lid over clear water is
+    // read through where the strip falls on its gaps. Dry here, no water found there: read through it,
+    // or the bottom hidden by it (a candidate waterline, read both ways and UNCERTAIN, is no finding: it
+    // is how a blotchy soil's shading looks to the waterline's tests).
+    const bool water = (g.conditions & kConditionWater) != 0;
+    const bool refuses = read_through ? g.status == RutStatus::BottomNotSeen
+                                      : water && (g.status == RutStatus::Ok || g.status == RutStatus::BottomNotSeen);
+    if (refuses) {
+      w.diag.guard_water = true;
+      m.conditions |= kConditionWater;
+      m.status = RutStatus::BottomNotSeen;
+      return;
+    }
+  }
 }
 
 MatchContext StereoMeasurer::make_match_context() const {
@@ -509,6 +570,7 @@ void StereoMeasurer::extract(FrameWork& w, RutWorkspace& workspace) const {
   }
   check_frame(w.left_strip, w.right_strip, w.disparity, first, first + strip_.rows, geometry_, workspace.geometry,
               w.diag.band, w.frame.skew_ns, signal, config_.conditions, w.checks, w.measurement);
+  check_guards(w);
   w.geometry = workspace.geometry;
   w.measured = true;
   w.diag.rut_ms = ms_since(t0);

@@ -170,6 +170,15 @@ const Case kCases[] = {
      "21 --baseline 100 --height 428 --hfov 60 --roll -2.4 --pitch 6.4 --noise 1.82 --speed 1443 "
      "--right-response 1.035 --seed 2001 --exposure 2.50",
      6, "Water", 0.0, false, 4},
+    // Litter floating on 23 mm of turbid water in a 53 mm grass rut, 85 % covered, like the grass in
+    // light and texture: where the measured strip falls on litter only, the lid is a level span lit like
+    // the soil, and one frame of four was published OK 23.0 mm shallow. A guard strip a quarter of the
+    // image away (StripConfig::guards) falls on the water between the litter and refuses it.
+    {"litter_lid_strip_misses_grass",
+     "--texture grass --depth 52.5 --width 248 --bottom-width 77 --pile-left 0.0 --pile-right 8.3 --baseline 97 "
+     "--height 440 --roll -3.8 --seed 1323 --water-level 23.0 --debris 0.85 --debris-kind litter "
+     "--water-attenuation 0.193",
+     4, "Water", 1.0, true},
     // Clear water whose wet walls darken less, against a blotchy mud's or grass's own texture, than a
     // waterline asks (2-3.8 times the ground's spread, against 4), the whole span below them darker by 4
     // times it and more: read through as a waterline, published with Water within 1 mm (were published

@@ -66,9 +66,9 @@ std::string dump(const RutdConfig& c) {
   o << "\ncalibration=" << c.calibration << "\nengine=" << static_cast<int>(m.engine)
     << "\ngpu_device=" << m.engine_config.gpu_device << "\nsgm_paths=" << m.engine_config.sgm_paths
     << "\nsgm_segment=" << m.engine_config.sgm_segment << "\ndic=" << m.dic << "\nstrip=" << m.strip.rows << ","
-    << m.strip.first_row.value_or(-1) << "\nrange=" << m.range.near_mm << "," << m.range.far_mm
-    << "\nrut=" << m.rut.min_rut_width_mm << "," << m.rut.max_rut_width_mm << "," << m.rut.fit_window_mm << ","
-    << m.rut.bin_mm << "," << m.rut.min_rut_depth_mm;
+    << m.strip.first_row.value_or(-1) << "," << m.strip.guards << "," << m.strip.guard_spacing
+    << "\nrange=" << m.range.near_mm << "," << m.range.far_mm << "\nrut=" << m.rut.min_rut_width_mm << ","
+    << m.rut.max_rut_width_mm << "," << m.rut.fit_window_mm << "," << m.rut.bin_mm << "," << m.rut.min_rut_depth_mm;
   o << "\ncan=" << c.can.extended << "," << int(c.can.source_address) << "," << int(c.can.priority);
   o << "\nsinks=" << c.sinks.socketcan << "," << c.sinks.candump << "," << c.sinks.can_interface_name << ","
     << c.sinks.csv;
@@ -225,6 +225,20 @@ TEST(Config, StripIsCentredUnlessItsFirstRowIsGiven) {
   // The old spelling of centred is refused, saying the new one.
   expect_error("measurement:\n  strip:\n    rows: 40\n    first_row: -1\n",
                {"line 4", "measurement.strip.first_row", "now written centred"});
+}
+
+TEST(Config, GuardStripsAndTheirSpacing) {
+  const MeasurerConfig defaults = parse_config("measurement:\n  strip:\n    rows: 40\n", "test.yaml").measurement;
+  EXPECT_EQ(defaults.strip.guards, 2);
+  EXPECT_DOUBLE_EQ(defaults.strip.guard_spacing, 0.25);
+  const MeasurerConfig set =
+      parse_config("measurement:\n  strip:\n    guards: 1\n    guard_spacing: 0.3\n", "test.yaml").measurement;
+  EXPECT_EQ(set.strip.guards, 1);
+  EXPECT_DOUBLE_EQ(set.strip.guard_spacing, 0.3);
+  EXPECT_EQ(parse_config("measurement:\n  strip:\n    guards: 0\n", "test.yaml").measurement.strip.guards, 0);
+  expect_error("measurement:\n  strip:\n    guards: 3\n", {"test.yaml", "line 3", "measurement.strip.guards"});
+  expect_error("measurement:\n  strip:\n    guard_spacing: 0.6\n",
+               {"test.yaml", "line 3", "measurement.strip.guard_spacing"});
 }
 
 // A file written for an older release: each moved key is refused with one error naming the file, the

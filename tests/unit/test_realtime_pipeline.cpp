@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <limits>
+#include <memory>
 #include <new>
 #include <semaphore>
 #include <stdexcept>
@@ -628,8 +629,10 @@ struct RealRig {
   MeasurerConfig config;
 };
 
+// The measured strip's stages; the guard strips' (StripConfig::guards), which extract() measures, below.
 TEST(RealtimePipeline, WhichRealStagesAllocatePerFrame) {
   RealRig rig;
+  rig.config.strip.guards = 0;
   const StereoMeasurer measurer(rig.renderer.calibration(), rig.config);
   MatchContext context = measurer.make_match_context();
   RutWorkspace workspace;
@@ -676,6 +679,71 @@ TEST(RealtimePipeline, WhichRealStagesAllocatePerFrame) {
   EXPECT_EQ(e, 0u);
 }
 
+// With guard strips, extract() measures each of them whole (StripConfig::guards) on the frames it finds
+// OK, their match included: it allocates what the guards' match stages do (OpenCV's matcher and parallel
+// loop), measured apart on measurers of the guards' own strips, and nothing else.
+TEST(RealtimePipeline, GuardStripsAllocateOnlyWhatTheirMatchDoes) {
+  RealRig rig;
+  ASSERT_EQ(rig.config.strip.guards, 2);
+  const StereoMeasurer measurer(rig.renderer.calibration(), rig.config);
+  const std::vector<StripRoi> strips = measurer.guard_strips();
+  ASSERT_EQ(strips.size(), 2U);
+  struct Apart {
+    std::unique_ptr<StereoMeasurer> m;
+    MatchContext context;
+    RutWorkspace workspace;
+    FrameWork w;
+  };
+  std::vector<Apart> apart(strips.size());
+  for (std::size_t k = 0; k < strips.size(); ++k) {
+    MeasurerConfig c = rig.config;
+    c.strip = StripConfig{.rows = strips[k].rows, .first_row = strips[k].row0, .guards = 0};
+    apart[k].m = std::make_unique<StereoMeasurer>(rig.renderer.calibration(), c);
+    apart[k].context = apart[k].m->make_match_context();
+  }
+  MatchContext context = measurer.make_match_context();
+  RutWorkspace workspace;
+  FrameWork w;
+  auto counted = [](bool on, auto&& stage) {
+    g_allocations.store(0);
+    g_counting.store(on);
+    stage();
+    g_counting.store(false);
+    return g_allocations.exchange(0);
+  };
+  std::uint64_t extract = 0, apart_match = 0, apart_extract = 0;
+  int guards = 0, frames = 0;
+  for (int i = 0; i < 17; ++i) {
+    const StereoFrame& f = rig.frames[i % rig.frames.size()];
+    const bool on = i >= 5;  // after a warm-up
+    f.left.copyTo(w.frame.left);
+    f.right.copyTo(w.frame.right);
+    ASSERT_TRUE(measurer.rectify(w));
+    measurer.match(w, context);
+    extract += counted(on, [&] { measurer.extract(w, workspace); });
+    ASSERT_EQ(w.measurement.status, RutStatus::Ok) << "frame " << i;
+    for (Apart& a : apart) {
+      f.left.copyTo(a.w.frame.left);
+      f.right.copyTo(a.w.frame.right);
+      ASSERT_TRUE(a.m->rectify(a.w));
+      apart_match += counted(on, [&] { a.m->match(a.w, a.context); });
+      apart_extract += counted(on, [&] { a.m->extract(a.w, a.workspace); });
+    }
+    if (!on) continue;
+    guards += w.diag.guard_strips;
+    ++frames;
+  }
+  std::printf(
+      "guard strips over %d frames: %d measured; extract allocated %llu times, the guards' strips "
+      "measured apart %llu in match and %llu in extract\n",
+      frames, guards, static_cast<unsigned long long>(extract), static_cast<unsigned long long>(apart_match),
+      static_cast<unsigned long long>(apart_extract));
+  EXPECT_EQ(guards, 2 * frames);
+  EXPECT_EQ(apart_extract, 0u);
+  // The same work: OpenCV's parallel loop allocates a little unlike from call to call.
+  EXPECT_LE(extract, apart_match + apart_match / 4 + 4 * static_cast<std::uint64_t>(frames));
+}
+
 // Real rectify and extract threads with a match stage that replays the disparity the real matcher
 // computed for the same pair (the OpenCV matchers allocate internally; see the test above).
 class ReplayedMatchStages final : public PipelineStages {
@@ -694,6 +762,7 @@ class ReplayedMatchStages final : public PipelineStages {
 
 TEST(RealtimePipeline, RealRectifyAndExtractAllocateNothingPerFrameInThePipeline) {
   RealRig rig;
+  rig.config.strip.guards = 0;  // their matchers allocate (GuardStripsAllocateOnlyInTheirEngine)
   const StereoMeasurer measurer(rig.renderer.calibration(), rig.config);
   std::vector<cv::Mat> disparities;
   {

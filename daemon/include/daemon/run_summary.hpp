@@ -12,15 +12,16 @@ class RunSummary {
  public:
   RunSummary();
   void add(const RutMeasurement& m, const MeasurementDiagnostics& d);
-  // Logs pairs, measurements per status, measurement rate (pairs per second of measuring time, and per
-  // second of wall time) and the mean time of each stage.
+  // Logs pairs, measurements per status (and how many a guard strip refused), measurement rate (pairs
+  // per second of measuring time, and per second of wall time) and the mean time of each stage.
   void log() const;
   std::uint64_t pairs() const { return pairs_; }
 
  private:
   std::chrono::steady_clock::time_point start_;
   std::uint64_t pairs_ = 0;
-  std::array<std::uint64_t, 6> by_status_{};
+  std::array<std::uint64_t, kRutStatusCount> by_status_{};
+  std::uint64_t guard_refused_ = 0;  // OK on the strip, refused by a guard strip (StripConfig::guards)
   double rectify_ms_ = 0, band_ms_ = 0, disparity_ms_ = 0, dic_ms_ = 0, reproject_ms_ = 0, rut_ms_ = 0;
 };
 

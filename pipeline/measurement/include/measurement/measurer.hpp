@@ -10,6 +10,7 @@
 // Per-frame path: nothing here throws because of frame content; a status says what went wrong.
 #include <memory>
 #include <optional>
+#include <vector>
 
 #include <opencv2/core.hpp>
 
@@ -31,6 +32,17 @@ namespace rutd {
 struct StripConfig {
   int rows = 0;                  // 0: default_strip()'s, a tenth of the image height (20..64)
   std::optional<int> first_row;  // the strip's first rectified row; std::nullopt: centred in the image
+  // Guard strips: water lies along a rut further than the image's length, while what one strip sees of
+  // it is chance (a lid's gaps, a waterline's steps fall between its rows). A frame the measured strip
+  // finds OK is measured again on this many more strips of the same height (the first guard_spacing of
+  // the image height above it, the second as far below, 0..2; a guard that would leave the image or
+  // overlap the strip is dropped), and refused BOTTOM_NOT_SEEN with Water where a guard finds water the
+  // strip did not (read through it, or the bottom hidden by it: a lid the strip took for the bottom),
+  // or, where the strip read the bottom through clear water, where a guard finds the bottom hidden (a
+  // lid over clear water glimpsed through its gaps). Off with water checks off. Only OK frames pay for
+  // them: up to twice a strip's work more, in extract() (a GPU engine's guards match on the CPU).
+  int guards = 2;
+  double guard_spacing = 0.25;
 };
 
 struct MeasurerConfig {
@@ -88,6 +100,8 @@ struct MeasurementDiagnostics {
          rut_ms = 0;  // rut_ms: extraction and frame checks
   bool rectified_on_device = false;
   bool band_on_device = false;  // the band's coarse pass ran on the engine's device (it rectified too)
+  int guard_strips = 0;         // guard strips measured (StripConfig::guards), in rut_ms
+  bool guard_water = false;     // ... and one of them refused the frame
 };
 
 // Everything one pair needs on its way through the stages. Frame pools hold these; every buffer is
@@ -137,8 +151,12 @@ class StereoMeasurer {
  public:
   // Computes the rectification once. Throws std::invalid_argument for a strip outside the image.
   StereoMeasurer(const StereoCalibration& calibration, const MeasurerConfig& config);
+  ~StereoMeasurer();
+  StereoMeasurer(StereoMeasurer&&) noexcept;
+  StereoMeasurer& operator=(StereoMeasurer&&) noexcept;
 
-  // Stages; each is const and thread-safe as long as every thread passes its own FrameWork and context.
+  // Stages; each is const and thread-safe as long as every thread passes its own FrameWork and context
+  // (extract() measures the guard strips, StripConfig::guards, one caller at a time).
   // rectify() returns false, with measurement.status NoMeasurement, when the frame does not match the
   // calibration (size, type); later stages must then be skipped.
   bool rectify(FrameWork& work) const;
@@ -158,6 +176,8 @@ class StereoMeasurer {
   const MeasurerConfig& config() const { return config_; }
   // The rectified rows measured, config().strip resolved for the image size.
   StripRoi strip() const { return strip_; }
+  // The guard strips' rows (StripConfig::guards), those that fit the image.
+  std::vector<StripRoi> guard_strips() const;
 
  private:
   // Engine (or, with reuse, the last frame's disparity) and DIC in w.diag.band.
@@ -173,6 +193,8 @@ class StereoMeasurer {
   DicConfig strip_dic_config() const;
   void read_through_water(FrameWork& w, RutWorkspace& workspace, const cv::Mat& measured, int first) const;
   void weigh_candidate_waterline(FrameWork& w, RutWorkspace& workspace, const Waterline& line, double y_mm) const;
+  // An OK frame measured again on the guard strips (StripConfig::guards), and refused where one finds water.
+  void check_guards(FrameWork& w) const;
   // The engine is to rectify this frame on its device (MeasurerConfig::rectify_on_device).
   bool device_rectifies(const StereoFrame& frame) const;
 
@@ -184,6 +206,9 @@ class StereoMeasurer {
   FrameWork work_;
   MatchContext context_;
   RutWorkspace rut_ws_;
+  // The guard strips' measurers, each measuring with its own buffers under one lock; null without guards.
+  struct Guards;
+  std::unique_ptr<Guards> guards_;
 };
 
 // The default strip: centred, clamp(height/10, 20, 64) rows of the rectified image.

@@ -1,0 +1,142 @@
+// Guard strips (StripConfig::guards): a frame the measured strip finds OK is measured again on two more
+// strips a quarter of the image height above and below it, and refused BOTTOM_NOT_SEEN with Water where
+// one of them finds water the strip did not. Where they lie; that they refuse a floating lid the strip
+// took for the rut's bottom (against the renderer's truth); and that they leave clean ruts alone.
+#include <cmath>
+#include <cstdio>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "daemon/scene_options.hpp"
+#include "measurement/measurer.hpp"
+#include "synthetic/synthetic_renderer.hpp"
+
+namespace rutd {
+namespace {
+
+SyntheticRendererConfig scene(const std::string& line) {
+  CLI::App app;
+  SceneOptions options;
+  add_scene_options(app, options);
+  app.parse(line, false);
+  return resolve_scene_options(options);
+}
+
+bool same(const StripRoi& a, const StripRoi& b) { return a.row0 == b.row0 && a.rows == b.rows; }
+
+TEST(GuardStrips, AQuarterOfTheImageAboveAndBelowTheStripWhereTheyFit) {
+  const SyntheticRenderer renderer(SyntheticRendererConfig{});  // 640x480
+  const StereoCalibration& cal = renderer.calibration();
+  ASSERT_EQ(cal.image_size.height, 480);
+
+  const StereoMeasurer centred(cal, MeasurerConfig{});
+  ASSERT_TRUE(same(centred.strip(), StripRoi{216, 48}));
+  const std::vector<StripRoi> g = centred.guard_strips();
+  ASSERT_EQ(g.size(), 2U);
+  EXPECT_TRUE(same(g[0], StripRoi{96, 48})) << g[0].row0;   // 216 - 480 / 4
+  EXPECT_TRUE(same(g[1], StripRoi{336, 48})) << g[1].row0;  // 216 + 480 / 4
+
+  MeasurerConfig high;
+  high.strip.rows = 48;
+  high.strip.first_row = 10;  // the guard above would leave the image
+  const std::vector<StripRoi> below = StereoMeasurer(cal, high).guard_strips();
+  ASSERT_EQ(below.size(), 1U);
+  EXPECT_TRUE(same(below[0], StripRoi{130, 48}));
+
+  MeasurerConfig one;
+  one.strip.guards = 1;
+  const std::vector<StripRoi> above = StereoMeasurer(cal, one).guard_strips();
+  ASSERT_EQ(above.size(), 1U);
+  EXPECT_TRUE(same(above[0], StripRoi{96, 48}));
+
+  MeasurerConfig close;
+  close.strip.guard_spacing = 0.05;  // 24 rows: it would overlap the strip
+  EXPECT_TRUE(StereoMeasurer(cal, close).guard_strips().empty());
+
+  MeasurerConfig full;
+  full.strip = StripConfig{.rows = 480, .first_row = 0};
+  EXPECT_TRUE(StereoMeasurer(cal, full).guard_strips().empty());
+
+  MeasurerConfig none;
+  none.strip.guards = 0;
+  EXPECT_TRUE(StereoMeasurer(cal, none).guard_strips().empty());
+
+  MeasurerConfig dry;  // no water checks: nothing for a guard to look for
+  dry.water.enabled = false;
+  EXPECT_TRUE(StereoMeasurer(cal, dry).guard_strips().empty());
+
+  MeasurerConfig bad;
+  bad.strip.guards = 3;
+  EXPECT_THROW(StereoMeasurer(cal, bad), std::invalid_argument);
+  bad.strip.guards = 2;
+  bad.strip.guard_spacing = 0.0;
+  EXPECT_THROW(StereoMeasurer(cal, bad), std::invalid_argument);
+}
+
+// Foam on 22 mm of clear water in a 46 mm sand rut, half covered. On two of four frames the measured
+// strip falls on foam only, level and lit like the soil: without guards they are published OK 22 mm
+// shallow, the foam measured as the bottom. The guards' strips fall on the foam's gaps and find the
+// water. Every frame the strip alone publishes OK off the truth must be refused with Water, and at least
+// one must be (else the scene no longer tests the guards).
+TEST(GuardStrips, ALidTheStripTookForTheBottomIsRefusedWithWater) {
+  const SyntheticRenderer renderer(
+      scene("--texture sand --depth 46.4 --width 235 --bottom-width 113 --pile-left 0.9 --pile-right 8.4 --baseline 92 "
+            "--height 437 --roll -2.7 --seed 1312 --water-level 22.3 --debris 0.50 --debris-kind foam "
+            "--water-attenuation 0.018"));
+  MeasurerConfig alone_config;
+  alone_config.strip.guards = 0;
+  StereoMeasurer alone(renderer.calibration(), alone_config);
+  StereoMeasurer guarded(renderer.calibration(), MeasurerConfig{});
+  int wrong_alone = 0, refused = 0;
+  for (std::uint64_t i = 0; i < 4; ++i) {
+    StereoFrame frame;
+    renderer.render(i, frame);
+    const double truth = renderer.truth(i).depth_mm;
+    const RutMeasurement a = alone.measure(frame.left, frame.right);
+    const RutMeasurement g = guarded.measure(frame.left, frame.right);
+    std::printf("frame %llu: strip alone %s %.2f mm, guarded %s (guards %d, water %d), truth %.2f mm\n",
+                static_cast<unsigned long long>(i), std::string(to_string(a.status)).c_str(), a.depth_mm,
+                std::string(to_string(g.status)).c_str(), guarded.diagnostics().guard_strips,
+                guarded.diagnostics().guard_water ? 1 : 0, truth);
+    // Never a wrong depth published OK, guarded.
+    if (g.status == RutStatus::Ok) {
+      EXPECT_LE(std::abs(g.depth_mm - truth), 1.0) << "frame " << i;
+    }
+    if (a.status != RutStatus::Ok || std::abs(a.depth_mm - truth) <= 1.0) continue;
+    ++wrong_alone;
+    EXPECT_EQ(g.status, RutStatus::BottomNotSeen) << "frame " << i;
+    EXPECT_NE(g.conditions & kConditionWater, 0U) << "frame " << i;
+    EXPECT_TRUE(guarded.diagnostics().guard_water) << "frame " << i;
+    refused += g.status == RutStatus::BottomNotSeen && guarded.diagnostics().guard_water;
+  }
+  EXPECT_GE(wrong_alone, 1) << "no frame the strip alone publishes OK off the truth: the scene tests nothing";
+  EXPECT_EQ(refused, wrong_alone);
+}
+
+// Clean ruts in sand and grass: both guards measured on every frame, none refuses, every depth within
+// the end-to-end tolerance of the truth.
+TEST(GuardStrips, CleanRutsAreLeftAlone) {
+  int checked = 0;
+  for (const char* line : {"--texture sand --depth 40 --seed 7", "--texture grass --depth 55 --roll 2 --seed 8"}) {
+    const SyntheticRenderer renderer(scene(line));
+    StereoMeasurer m(renderer.calibration(), MeasurerConfig{});
+    for (std::uint64_t i = 0; i < 3; ++i) {
+      StereoFrame frame;
+      renderer.render(i, frame);
+      const RutMeasurement r = m.measure(frame.left, frame.right);
+      ASSERT_EQ(r.status, RutStatus::Ok) << line << " frame " << i;
+      EXPECT_EQ(m.diagnostics().guard_strips, 2) << line << " frame " << i;
+      EXPECT_FALSE(m.diagnostics().guard_water) << line << " frame " << i;
+      EXPECT_EQ(r.conditions & kConditionWater, 0U) << line << " frame " << i;
+      EXPECT_NEAR(r.depth_mm, renderer.truth(i).depth_mm, 0.5) << line << " frame " << i;
+      ++checked;
+    }
+  }
+  EXPECT_EQ(checked, 6);
+}
+
+}  // namespace
+}  // namespace rutd
