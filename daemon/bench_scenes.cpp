@@ -57,13 +57,7 @@ struct SceneOutcome {
   double seconds = 0;
 };
 
-SyntheticRendererConfig scene_config(const MatrixScene& scene) {
-  CLI::App app;
-  SceneOptions options;
-  add_scene_options(app, options);
-  app.parse(scene.synth, false);
-  return resolve_scene_options(options);
-}
+SyntheticRendererConfig scene_config(const MatrixScene& scene) { return parse_scene_line(scene.synth); }
 
 std::uint8_t expected_bits(const MatrixScene& scene) {
   std::uint8_t bits = 0;

@@ -183,4 +183,12 @@ SyntheticRendererConfig resolve_scene_options(const SceneOptions& o) {
   return p;
 }
 
+SyntheticRendererConfig parse_scene_line(const std::string& line) {
+  CLI::App app;
+  SceneOptions options;
+  add_scene_options(app, options);
+  app.parse(line, false);
+  return resolve_scene_options(options);
+}
+
 }  // namespace rutd

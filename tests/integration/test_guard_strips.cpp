@@ -17,13 +17,7 @@
 namespace rutd {
 namespace {
 
-SyntheticRendererConfig scene(const std::string& line) {
-  CLI::App app;
-  SceneOptions options;
-  add_scene_options(app, options);
-  app.parse(line, false);
-  return resolve_scene_options(options);
-}
+SyntheticRendererConfig scene(const std::string& line) { return parse_scene_line(line); }
 
 bool same(const StripRoi& a, const StripRoi& b) { return a.row0 == b.row0 && a.rows == b.rows; }
 

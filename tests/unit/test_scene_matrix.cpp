@@ -17,13 +17,7 @@
 namespace rutd {
 namespace {
 
-SyntheticRendererConfig parse(const std::string& synth) {
-  CLI::App app;
-  SceneOptions options;
-  add_scene_options(app, options);
-  app.parse(synth, false);
-  return resolve_scene_options(options);
-}
+SyntheticRendererConfig parse(const std::string& synth) { return parse_scene_line(synth); }
 
 TEST(SceneMatrix, CoversTheSpoiledAndCleanScenesAndEveryOneIsAValidSynthCommand) {
   const std::vector<MatrixScene> scenes = scene_matrix();

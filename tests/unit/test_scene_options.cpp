@@ -11,13 +11,7 @@
 namespace rutd {
 namespace {
 
-SyntheticRendererConfig parse(const std::string& line) {
-  CLI::App app;
-  SceneOptions options;
-  add_scene_options(app, options);
-  app.parse(line, false);
-  return resolve_scene_options(options);
-}
+SyntheticRendererConfig parse(const std::string& line) { return parse_scene_line(line); }
 
 TEST(SceneOptions, ConditionsAndCamerasLandInTheRenderersSettings) {
   const SyntheticRendererConfig p = parse(

@@ -32,6 +32,9 @@ struct SceneOptions {
 void add_scene_options(CLI::App& cmd, SceneOptions& options);
 // Parses the textual options into options.params; throws CLI::ValidationError naming the option.
 SyntheticRendererConfig resolve_scene_options(const SceneOptions& options);
+// A whole `rutd synth` option line (no folder, no --frames), as the scene matrix writes its scenes:
+// parsed and resolved by the two above; throws CLI::ParseError (unknown option) or ValidationError.
+SyntheticRendererConfig parse_scene_line(const std::string& line);
 
 // The conditions' half of the two above (daemon/scene_condition_options.cpp).
 void add_condition_options(CLI::App& cmd, SceneOptions& options);
