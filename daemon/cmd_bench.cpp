@@ -38,7 +38,7 @@ struct Options {
   std::string engine = "sgbm3way";
   std::string size = "640x480";
   bool json = false;
-  int guards = 2;  // guard strips of the strip runs (StripConfig::guards)
+  int guards = 0;  // guard strips of the strip runs (StripConfig::guards)
 };
 // Counts what the pipeline published and compares each OK depth with the renderer's truth of the pair it
 // came from (the cycling source delivers frames[seq % frames.size()]).

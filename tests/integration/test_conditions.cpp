@@ -21,10 +21,11 @@ struct Case {
   const char* name;
   const char* synth;  // rutd synth options besides the folder and --frames
   int frames;
-  const char* flag;        // RutConditions signal that must be raised
-  double min_flagged;      // share of frames on which it must be
-  bool flag_when_refused;  // ... and on every frame not published OK
-  int min_ok = 0;          // frames that must be published OK (within 1 mm, as every OK frame)
+  const char* flag;         // RutConditions signal that must be raised
+  double min_flagged;       // share of frames on which it must be
+  bool flag_when_refused;   // ... and on every frame not published OK
+  int min_ok = 0;           // frames that must be published OK (within 1 mm, as every OK frame)
+  const char* replay = "";  // rutd replay options besides the folder and the outputs
 };
 
 std::ostream& operator<<(std::ostream& os, const Case& c) { return os << c.name; }
@@ -40,8 +41,9 @@ Outcome run_case(const Case& c) {
   const std::string rec = (tmp.path() / "rec").string();
   const auto log = tmp.path() / "can.log";
   EXPECT_EQ(test::run_rutd("synth " + rec + " --frames " + std::to_string(c.frames) + " " + c.synth), 0);
-  EXPECT_EQ(
-      test::run_rutd("replay " + rec + " --out " + (tmp.path() / "m.csv").string() + " --candump " + log.string()), 0);
+  EXPECT_EQ(test::run_rutd("replay " + rec + " --out " + (tmp.path() / "m.csv").string() + " --candump " +
+                           log.string() + " " + c.replay),
+            0);
   bool decoded_ok = false;
   const auto all = test::decode_candump(log, decoded_ok);
   EXPECT_TRUE(decoded_ok) << "decoder reported CRC, counter or format errors";
@@ -178,7 +180,7 @@ const Case kCases[] = {
      "--texture grass --depth 52.5 --width 248 --bottom-width 77 --pile-left 0.0 --pile-right 8.3 --baseline 97 "
      "--height 440 --roll -3.8 --seed 1323 --water-level 23.0 --debris 0.85 --debris-kind litter "
      "--water-attenuation 0.193",
-     4, "Water", 1.0, true},
+     4, "Water", 1.0, true, 0, "--guard-strips 2"},
     // Clear water whose wet walls darken less, against a blotchy mud's or grass's own texture, than a
     // waterline asks (2-3.8 times the ground's spread, against 4), the whole span below them darker by 4
     // times it and more: read through as a waterline, published with Water within 1 mm (were published

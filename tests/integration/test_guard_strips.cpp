@@ -19,6 +19,13 @@ namespace {
 
 SyntheticRendererConfig scene(const std::string& line) { return parse_scene_line(line); }
 
+// Guards on (off by default).
+MeasurerConfig guarded() {
+  MeasurerConfig c;
+  c.strip.guards = 2;
+  return c;
+}
+
 bool same(const StripRoi& a, const StripRoi& b) { return a.row0 == b.row0 && a.rows == b.rows; }
 
 TEST(GuardStrips, AQuarterOfTheImageAboveAndBelowTheStripWhereTheyFit) {
@@ -26,43 +33,43 @@ TEST(GuardStrips, AQuarterOfTheImageAboveAndBelowTheStripWhereTheyFit) {
   const StereoCalibration& cal = renderer.calibration();
   ASSERT_EQ(cal.image_size.height, 480);
 
-  const StereoMeasurer centred(cal, MeasurerConfig{});
+  const StereoMeasurer centred(cal, guarded());
   ASSERT_TRUE(same(centred.strip(), StripRoi{216, 48}));
   const std::vector<StripRoi> g = centred.guard_strips();
   ASSERT_EQ(g.size(), 2U);
   EXPECT_TRUE(same(g[0], StripRoi{96, 48})) << g[0].row0;   // 216 - 480 / 4
   EXPECT_TRUE(same(g[1], StripRoi{336, 48})) << g[1].row0;  // 216 + 480 / 4
 
-  MeasurerConfig high;
+  MeasurerConfig high = guarded();
   high.strip.rows = 48;
   high.strip.first_row = 10;  // the guard above would leave the image
   const std::vector<StripRoi> below = StereoMeasurer(cal, high).guard_strips();
   ASSERT_EQ(below.size(), 1U);
   EXPECT_TRUE(same(below[0], StripRoi{130, 48}));
 
-  MeasurerConfig one;
+  MeasurerConfig one = guarded();
   one.strip.guards = 1;
   const std::vector<StripRoi> above = StereoMeasurer(cal, one).guard_strips();
   ASSERT_EQ(above.size(), 1U);
   EXPECT_TRUE(same(above[0], StripRoi{96, 48}));
 
-  MeasurerConfig close;
+  MeasurerConfig close = guarded();
   close.strip.guard_spacing = 0.05;  // 24 rows: it would overlap the strip
   EXPECT_TRUE(StereoMeasurer(cal, close).guard_strips().empty());
 
-  MeasurerConfig full;
-  full.strip = StripConfig{.rows = 480, .first_row = 0};
+  MeasurerConfig full = guarded();
+  full.strip = StripConfig{.rows = 480, .first_row = 0, .guards = 2};
   EXPECT_TRUE(StereoMeasurer(cal, full).guard_strips().empty());
 
   MeasurerConfig none;
   none.strip.guards = 0;
   EXPECT_TRUE(StereoMeasurer(cal, none).guard_strips().empty());
 
-  MeasurerConfig dry;  // no water checks: nothing for a guard to look for
+  MeasurerConfig dry = guarded();  // no water checks: nothing for a guard to look for
   dry.water.enabled = false;
   EXPECT_TRUE(StereoMeasurer(cal, dry).guard_strips().empty());
 
-  MeasurerConfig bad;
+  MeasurerConfig bad = guarded();
   bad.strip.guards = 3;
   EXPECT_THROW(StereoMeasurer(cal, bad), std::invalid_argument);
   bad.strip.guards = 2;
@@ -83,7 +90,7 @@ TEST(GuardStrips, ALidTheStripTookForTheBottomIsRefusedWithWater) {
   MeasurerConfig alone_config;
   alone_config.strip.guards = 0;
   StereoMeasurer alone(renderer.calibration(), alone_config);
-  StereoMeasurer guarded(renderer.calibration(), MeasurerConfig{});
+  StereoMeasurer guarded(renderer.calibration(), rutd::guarded());
   int wrong_alone = 0, refused = 0;
   for (std::uint64_t i = 0; i < 4; ++i) {
     StereoFrame frame;
@@ -116,7 +123,7 @@ TEST(GuardStrips, CleanRutsAreLeftAlone) {
   int checked = 0;
   for (const char* line : {"--texture sand --depth 40 --seed 7", "--texture grass --depth 55 --roll 2 --seed 8"}) {
     const SyntheticRenderer renderer(scene(line));
-    StereoMeasurer m(renderer.calibration(), MeasurerConfig{});
+    StereoMeasurer m(renderer.calibration(), guarded());
     for (std::uint64_t i = 0; i < 3; ++i) {
       StereoFrame frame;
       renderer.render(i, frame);

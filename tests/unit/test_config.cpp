@@ -229,13 +229,13 @@ TEST(Config, StripIsCentredUnlessItsFirstRowIsGiven) {
 
 TEST(Config, GuardStripsAndTheirSpacing) {
   const MeasurerConfig defaults = parse_config("measurement:\n  strip:\n    rows: 40\n", "test.yaml").measurement;
-  EXPECT_EQ(defaults.strip.guards, 2);
+  EXPECT_EQ(defaults.strip.guards, 0);
   EXPECT_DOUBLE_EQ(defaults.strip.guard_spacing, 0.25);
   const MeasurerConfig set =
       parse_config("measurement:\n  strip:\n    guards: 1\n    guard_spacing: 0.3\n", "test.yaml").measurement;
   EXPECT_EQ(set.strip.guards, 1);
   EXPECT_DOUBLE_EQ(set.strip.guard_spacing, 0.3);
-  EXPECT_EQ(parse_config("measurement:\n  strip:\n    guards: 0\n", "test.yaml").measurement.strip.guards, 0);
+  EXPECT_EQ(parse_config("measurement:\n  strip:\n    guards: 2\n", "test.yaml").measurement.strip.guards, 2);
   expect_error("measurement:\n  strip:\n    guards: 3\n", {"test.yaml", "line 3", "measurement.strip.guards"});
   expect_error("measurement:\n  strip:\n    guard_spacing: 0.6\n",
                {"test.yaml", "line 3", "measurement.strip.guard_spacing"});

@@ -684,7 +684,7 @@ TEST(RealtimePipeline, WhichRealStagesAllocatePerFrame) {
 // loop), measured apart on measurers of the guards' own strips, and nothing else.
 TEST(RealtimePipeline, GuardStripsAllocateOnlyWhatTheirMatchDoes) {
   RealRig rig;
-  ASSERT_EQ(rig.config.strip.guards, 2);
+  rig.config.strip.guards = 2;
   const StereoMeasurer measurer(rig.renderer.calibration(), rig.config);
   const std::vector<StripRoi> strips = measurer.guard_strips();
   ASSERT_EQ(strips.size(), 2U);

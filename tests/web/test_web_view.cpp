@@ -73,13 +73,10 @@ class WebView : public ::testing::Test {
   fs::path config(const std::string& name, const std::string& extra) const {
     const fs::path p = dir() / (name + ".yaml");
     // The embedded default's source (8 pairs rendered once, played at 30 Hz as cameras deliver), unless
-    // the case replays a recording. Without guard strips: they measure every OK frame twice more, which a
-    // sanitized build on two cores pays for with the browser's time; the page is what is tested here.
+    // the case replays a recording.
     std::ofstream(p) << (extra.find("source:") == std::string::npos ? "source:\n  synthetic:\n    cycle_frames: 8\n"
                                                                     : "")
                      << "web:\n  enabled: true\n  port: 0\n"
-                     << (extra.find("measurement:") == std::string::npos ? "measurement:\n  strip:\n    guards: 0\n"
-                                                                         : "")
                      << extra;
     return p;
   }

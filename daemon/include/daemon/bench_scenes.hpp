@@ -14,7 +14,7 @@ struct BenchScenesOptions {
   std::string engine = "sgbm3way";
   bool dic = true;
   bool json = false;
-  int guards = 2;  // StripConfig::guards
+  int guards = 0;  // StripConfig::guards
 };
 // Throws CLI::ValidationError for a bad --only pattern or one that selects nothing.
 int run_bench_scenes(const BenchScenesOptions& o);
