@@ -39,6 +39,7 @@ int run_record(const RecordOptions& o) {
   spdlog::set_level(spdlog::level::from_str(c.logging.level));
   std::unique_ptr<FrameSource> source = make_source(c);  // throws InputError for an unusable source
   FrameRecorderConfig options;
+  options.capacity = static_cast<std::size_t>(c.record_buffer);
   options.writer.sync_to_disk = !o.no_sync;
   // Throws InputError when DIR cannot be written or already holds a recording.
   FrameRecorder recorder(o.dir, source->calibration(), options);

@@ -141,6 +141,7 @@ int run_daemon(const RunOptions& o, const RunInjection& injection) {
   std::unique_ptr<FrameRecorder> recorder;
   if (!c.record.empty()) {
     FrameRecorderConfig recording;
+    recording.capacity = static_cast<std::size_t>(c.record_buffer);
     recording.writer.faults = injection.faults;
     recorder = std::make_unique<FrameRecorder>(c.record, source->calibration(), recording);
     source = std::make_unique<RecordingTee>(std::move(source), *recorder);

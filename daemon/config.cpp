@@ -626,7 +626,7 @@ RutdConfig parse_config(const std::string& yaml_text, const std::string& file) {
   if (c.source == SourceKind::Replay && c.replay.dir.empty())
     replay.fail("dir", "the replay source needs a recording folder");
   read_aravis(source.child("aravis"), c.aravis);
-  source.get<std::string>("record", c.record);
+  source.get<std::string>("record", c.record).get<int>("record_buffer", c.record_buffer, in_range(1, 1024));
   source.finish();
 
   top.get<std::string>("calibration", c.calibration);

@@ -49,7 +49,8 @@ std::string dump(const RutdConfig& c) {
     << "\npiles=" << y.rut.pile_left_mm << "," << y.rut.pile_right_mm << "," << y.rut.pile_width_mm
     << "\nwander=" << y.rut.wander_amplitude_mm << "\nspeed=" << y.speed_mm_s << "\nnoise=" << y.noise_sigma
     << "\nseed=" << y.seed << "\ncycle_frames=" << c.synthetic_cycle_frames;
-  o << "\nreplay=" << c.replay.dir << "," << c.replay.paced << "," << c.replay.loop << "\nrecord=" << c.record;
+  o << "\nreplay=" << c.replay.dir << "," << c.replay.paced << "," << c.replay.loop << "\nrecord=" << c.record << ","
+    << c.record_buffer;
   const AravisSourceConfig& a = c.aravis;
   const auto region = [](const SensorRegion& r) {
     return std::to_string(r.x) + "," + std::to_string(r.y) + "," + std::to_string(r.width) + "," +
@@ -189,6 +190,9 @@ TEST(Config, RecordingTeeIsOffByDefaultAndReadAsText) {
   EXPECT_EQ(parse_config("source:\n  record: /data/rec1\n", "test.yaml").record, "/data/rec1");
   expect_error("source:\n  record: [a, b]\n", {"line 2", "source.record", "expected text"});
   expect_error("source:\n  record:\n    dir: x\n", {"source.record", "expected text"});
+  EXPECT_EQ(parse_config("source:\n  record_buffer: 120\n", "test.yaml").record_buffer, 120);
+  expect_error("source:\n  record_buffer: 0\n", {"test.yaml", "line 2", "source.record_buffer"});
+  expect_error("source:\n  record_buffer: 2000\n", {"test.yaml", "line 2", "source.record_buffer"});
 }
 
 TEST(Config, PlotsAreOffByDefaultAndNeedAFolder) {

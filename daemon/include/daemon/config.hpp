@@ -79,6 +79,9 @@ struct RutdConfig {
   // source.record: a recording tee. The source's raw pairs are also recorded into this new folder
   // (DESIGN.md Formats) on their way to the pipeline; empty: off.
   std::string record;
+  // source.record_buffer: pairs that may wait for the disk (FrameRecorderConfig::capacity, 1..1024); a
+  // pair that finds every slot taken is dropped and counted. 30 rides out a one-second disk stall at 30 fps.
+  int record_buffer = 30;
   std::string calibration;  // calibration file; synthetic and replay sources bring their own
   MeasurerConfig measurement;
   CanIdConfig can;
