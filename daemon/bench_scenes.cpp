@@ -107,7 +107,7 @@ SceneOutcome measure_scene(const MatrixScene& scene, const BenchScenesOptions& o
     FrameOutcome f;
     f.index = static_cast<std::uint64_t>(i);
     f.settings = renderer.render(f.index, frame);
-    f.m = measurer.measure(frame.left, frame.right, frame.skew_ns);
+    f.m = measurer.measure(frame.left, frame.right, frame.skew_ns, frame.t_ns);
     f.truth = renderer.truth(f.index);
     const double error = std::abs(f.m.depth_mm - f.truth.depth_mm);
     if (f.m.status == RutStatus::Ok) {

@@ -115,7 +115,7 @@ void StereoMeasurer::check_guards(FrameWork& w) const {
   const bool read_through = (m.conditions & kConditionWater) != 0;
   const std::lock_guard lock(guards_->mutex);
   for (StereoMeasurer& guard : guards_->strips) {
-    const RutMeasurement g = guard.measure(w.frame.left, w.frame.right, w.frame.skew_ns);
+    const RutMeasurement g = guard.measure(w.frame.left, w.frame.right, w.frame.skew_ns, w.frame.t_ns);
     ++w.diag.guard_strips;
     // Read through clear water here, the bottom must not be hidden there: a lid over clear water is
     // read through where the strip falls on its gaps. Dry here, no water found there: read through it,
@@ -409,6 +409,28 @@ double bin_appearance(const cv::Mat& xyz, const cv::Mat& left, int first, const 
   return points > 0 ? y_sum / double(points) : 0.0;
 }
 
+// WaterlineConfig::memory_s: a waterline confirmed on a frame at most memory_s before t_ns, at the level of
+// `line` within twice their combined standard uncertainty and level_tolerance_mm.
+struct RecalledWaterline {
+  std::int64_t t_ns = 0;
+  double level_mm = std::numeric_limits<double>::quiet_NaN(), level_u_mm = 0.0;
+};
+
+// The waterline the last frame confirmed, taken out of the workspace: a frame that confirms none clears it.
+RecalledWaterline take_waterline(RutWorkspace& workspace) {
+  const RecalledWaterline out{workspace.waterline_t_ns, workspace.waterline_level_mm, workspace.waterline_level_u_mm};
+  workspace.waterline_level_mm = std::numeric_limits<double>::quiet_NaN();
+  return out;
+}
+
+bool recalls_waterline(const RecalledWaterline& last, const Waterline& line, std::int64_t t_ns,
+                       const WaterlineConfig& c) {
+  if (!(c.memory_s > 0.0) || !std::isfinite(last.level_mm)) return false;
+  const double age_s = 1e-9 * static_cast<double>(t_ns - last.t_ns);
+  const double tolerance = c.level_tolerance_mm + 2.0 * std::hypot(line.level_u_mm, last.level_u_mm);
+  return age_s >= 0.0 && age_s <= c.memory_s && std::abs(line.level_mm - last.level_mm) <= tolerance;
+}
+
 }  // namespace
 
 // Standing water (rut/waterline.hpp): a level span at the bottom, not much rougher than the ground, lit
@@ -424,6 +446,7 @@ void StereoMeasurer::read_through_water(FrameWork& w, RutWorkspace& workspace, c
   RutMeasurement& m = w.measurement;
   const WaterlineConfig& c = config_.water;
   if (!c.enabled || !depth_found(m.status) || !workspace.geometry.has_rut || !workspace.geometry.has_line) return;
+  const RecalledWaterline last = take_waterline(workspace);
   // The strip's noise for the texture, from sixteen of its rows (its own: rectification's interpolation
   // smooths the raw images' noise).
   const ImageSignal strip = image_signal(w.left_strip, first, first + strip_.rows, 16, w.checks.histogram);
@@ -447,7 +470,7 @@ void StereoMeasurer::read_through_water(FrameWork& w, RutWorkspace& workspace, c
   // both walls and over the whole span between them by at least wetting's least (min_step), as wet soil
   // or the water's body colour darkens (a lid that brightens is the lid check's); a waterline after all
   // where that span darkens by a waterline's threshold.
-  bool candidate = false;
+  bool candidate = false, recalled = false;
   if (!line.found && c.candidate_step_over_ground > 0.0) {
     WaterlineConfig relaxed = c;
     relaxed.step_over_ground = c.candidate_step_over_ground;
@@ -465,7 +488,14 @@ void StereoMeasurer::read_through_water(FrameWork& w, RutWorkspace& workspace, c
       // short of it on one wall or both, only place its level.
       const double need = waterline_step_threshold(c, weak.ground_spread);
       candidate = !(-weak.submerged_step >= need && -weak.submerged_ground_step >= need);
+      recalled = candidate && recalls_waterline(last, weak, w.frame.t_ns, c);
+      candidate = candidate && !recalled;
     }
+  }
+  if (line.found && !candidate && !recalled) {
+    workspace.waterline_t_ns = w.frame.t_ns;
+    workspace.waterline_level_mm = line.level_mm;
+    workspace.waterline_level_u_mm = line.level_u_mm;
   }
   if (!line.found) {
     // No waterline above a level span unlike the ground: a lid whose edges the walls do not show.
@@ -602,11 +632,13 @@ PublishedFrame published_frame(const FrameWork& w, const SensorHealth& health) {
   return f;
 }
 
-RutMeasurement StereoMeasurer::measure(const cv::Mat& left_raw, const cv::Mat& right_raw, std::int64_t skew_ns) {
+RutMeasurement StereoMeasurer::measure(const cv::Mat& left_raw, const cv::Mat& right_raw, std::int64_t skew_ns,
+                                       std::int64_t t_ns) {
   // Shallow copies: the pixels stay the caller's.
   work_.frame.left = left_raw;
   work_.frame.right = right_raw;
   work_.frame.skew_ns = skew_ns;
+  work_.frame.t_ns = t_ns;
   if (rectify(work_)) {
     if (!context_.engine) context_ = make_match_context();
     match(work_, context_);

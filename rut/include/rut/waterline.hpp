@@ -70,6 +70,11 @@ struct WaterlineConfig {
   // frame is read both ways and refused where the two readings differ by more than its depth
   // uncertainty allows (StereoMeasurer). 0: off.
   double candidate_step_over_ground = 2.0;
+  // Standing water lies along the rut for metres; one frame's walls show its steps below the threshold
+  // where the last showed them above it. A candidate waterline at the level of a waterline confirmed at
+  // most memory_s before (capture times), within twice their levels' combined standard uncertainty and
+  // level_tolerance_mm, is that water's waterline. 0: off.
+  double memory_s = 0.5;
 
   // A floating lid (foam, leaves, litter on the water) where no pair of steps marks the waterline
   // (foam on snow is as bright as the snow on one wall): the profile's deepest span is level, not much

@@ -166,9 +166,10 @@ class StereoMeasurer {
 
   MatchContext make_match_context() const;
 
-  // The three stages in turn on internal buffers (replay, tests). Not thread-safe. skew_ns: the pair's
-  // StereoFrame::skew_ns.
-  RutMeasurement measure(const cv::Mat& left_raw, const cv::Mat& right_raw, std::int64_t skew_ns = 0);
+  // The three stages in turn on internal buffers (replay, tests). Not thread-safe. skew_ns, t_ns: the
+  // pair's StereoFrame::skew_ns and capture time (the waterline's memory, WaterlineConfig::memory_s).
+  RutMeasurement measure(const cv::Mat& left_raw, const cv::Mat& right_raw, std::int64_t skew_ns = 0,
+                         std::int64_t t_ns = 0);
   const MeasurementDiagnostics& diagnostics() const { return work_.diag; }
   // The last measure() call's refined disparity strip (CV_32FC1 px, NaN invalid).
   const cv::Mat& disparity() const { return work_.disparity; }
