@@ -413,22 +413,41 @@ double bin_appearance(const cv::Mat& xyz, const cv::Mat& left, int first, const 
 // `line` within twice their combined standard uncertainty and level_tolerance_mm.
 struct RecalledWaterline {
   std::int64_t t_ns = 0;
-  double level_mm = std::numeric_limits<double>::quiet_NaN(), level_u_mm = 0.0;
+  Waterline line;  // found: the last frame confirmed it
 };
 
 // The waterline the last frame confirmed, taken out of the workspace: a frame that confirms none clears it.
 RecalledWaterline take_waterline(RutWorkspace& workspace) {
-  const RecalledWaterline out{workspace.waterline_t_ns, workspace.waterline_level_mm, workspace.waterline_level_u_mm};
+  RecalledWaterline out;
+  out.t_ns = workspace.waterline_t_ns;
+  out.line.found = std::isfinite(workspace.waterline_level_mm);
+  out.line.level_mm = workspace.waterline_level_mm;
+  out.line.level_u_mm = workspace.waterline_level_u_mm;
+  out.line.left_x_mm = workspace.waterline_left_x_mm;
+  out.line.right_x_mm = workspace.waterline_right_x_mm;
   workspace.waterline_level_mm = std::numeric_limits<double>::quiet_NaN();
   return out;
 }
 
+void keep_waterline(RutWorkspace& workspace, const Waterline& line, std::int64_t t_ns) {
+  workspace.waterline_t_ns = t_ns;
+  workspace.waterline_level_mm = line.level_mm;
+  workspace.waterline_level_u_mm = line.level_u_mm;
+  workspace.waterline_left_x_mm = line.left_x_mm;
+  workspace.waterline_right_x_mm = line.right_x_mm;
+}
+
+// The last frame confirmed a waterline at most memory_s before t_ns.
+bool recent(const RecalledWaterline& last, std::int64_t t_ns, const WaterlineConfig& c) {
+  const double age_s = 1e-9 * static_cast<double>(t_ns - last.t_ns);
+  return c.memory_s > 0.0 && last.line.found && age_s >= 0.0 && age_s <= c.memory_s;
+}
+
+// ... at the level of `line`, within twice their combined standard uncertainty and level_tolerance_mm.
 bool recalls_waterline(const RecalledWaterline& last, const Waterline& line, std::int64_t t_ns,
                        const WaterlineConfig& c) {
-  if (!(c.memory_s > 0.0) || !std::isfinite(last.level_mm)) return false;
-  const double age_s = 1e-9 * static_cast<double>(t_ns - last.t_ns);
-  const double tolerance = c.level_tolerance_mm + 2.0 * std::hypot(line.level_u_mm, last.level_u_mm);
-  return age_s >= 0.0 && age_s <= c.memory_s && std::abs(line.level_mm - last.level_mm) <= tolerance;
+  const double tolerance = c.level_tolerance_mm + 2.0 * std::hypot(line.level_u_mm, last.line.level_u_mm);
+  return recent(last, t_ns, c) && std::abs(line.level_mm - last.line.level_mm) <= tolerance;
 }
 
 }  // namespace
@@ -492,18 +511,23 @@ void StereoMeasurer::read_through_water(FrameWork& w, RutWorkspace& workspace, c
       candidate = candidate && !recalled;
     }
   }
-  if (line.found && !candidate && !recalled) {
-    workspace.waterline_t_ns = w.frame.t_ns;
-    workspace.waterline_level_mm = line.level_mm;
-    workspace.waterline_level_u_mm = line.level_u_mm;
-  }
+  if (line.found && !candidate && !recalled) keep_waterline(workspace, line, w.frame.t_ns);
   if (!line.found) {
     // No waterline above a level span unlike the ground: a lid whose edges the walls do not show.
-    if (lid.unlike_ground) refuse_as_lid();
+    if (lid.unlike_ground) {
+      refuse_as_lid();
+    } else if (recent(last, w.frame.t_ns, c)) {
+      // No steps at all, a moment after the last frame confirmed a waterline: the water may well be
+      // there, its steps too faint on these walls. Read both ways at its level, as a candidate is (so
+      // is a frame whose candidate lies at another level, below).
+      weigh_candidate_waterline(w, workspace, last.line, y_mm);
+    }
     return;
   }
   if (candidate) {
     weigh_candidate_waterline(w, workspace, line, y_mm);
+    // Steps at another level than the waterline confirmed a moment ago: that one is weighed too.
+    if (recent(last, w.frame.t_ns, c)) weigh_candidate_waterline(w, workspace, last.line, y_mm);
     return;
   }
   const auto mark = [&](RutGeometry& g) { mark_water(g, line.level_mm, line.left_x_mm, line.right_x_mm); };

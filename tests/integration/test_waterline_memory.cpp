@@ -6,9 +6,12 @@
 // level, a candidate is that water's waterline and is read through: within 1 mm of the renderer's truth,
 // flagged Water. Not after a longer gap than memory_s, not with the memory off, and not after a frame
 // that only recalled its waterline (a chain would carry one chance confirmation on for ever).
+// And where a frame shows no steps at all a moment after one that confirmed a waterline (19 mm of clear
+// water on snow), it is read both ways at that level: never the dry depth, 4.8 mm short, published OK.
 #include <cmath>
 #include <cstdint>
 #include <string>
+#include <vector>
 
 #include <gtest/gtest.h>
 
@@ -88,6 +91,33 @@ TEST(WaterlineMemory, ACandidateAtTheLevelTheLastFrameConfirmedIsReadThrough) {
     const Measured next = measure(m, renderer, 5);
     EXPECT_TRUE(refused_uncertain_with_water(next)) << to_string(next.m.status) << " " << next.m.depth_mm << " mm";
   }
+}
+
+// The scene matrix's water-clear-snow-09, its eight frames in turn as the matrix measures them: frame 6
+// confirms its waterline and is read through; frame 7 shows no steps, and without the memory its dry
+// reading is published OK off the truth.
+TEST(WaterlineMemory, AFrameWithoutStepsRightAfterAWaterlineIsReadBothWays) {
+  const SyntheticRenderer renderer(parse_scene_line(
+      "--texture snow --depth 43.4 --width 252 --bottom-width 87 --pile-left 10.1 --pile-right 10.5 --baseline 68 "
+      "--height 428 --roll 0.1 --seed 1009 --water-level 19.4 --water-attenuation 0.0030 --water-colour 0.08"));
+  const auto run = [&](double memory_s) {
+    MeasurerConfig config;
+    config.water.memory_s = memory_s;
+    StereoMeasurer m(renderer.calibration(), config);
+    std::vector<Measured> out;
+    for (std::uint64_t i = 0; i < 8; ++i) out.push_back(measure(m, renderer, i));
+    return out;
+  };
+  const std::vector<Measured> without = run(0.0);
+  ASSERT_TRUE(read_through(without[6])) << to_string(without[6].m.status) << " " << without[6].m.depth_mm << " mm";
+  ASSERT_EQ(without[7].m.status, RutStatus::Ok) << "the scene no longer tests the case";
+  ASSERT_EQ(without[7].m.conditions & kConditionWater, 0U);
+  ASSERT_GT(std::abs(without[7].m.depth_mm - without[7].truth_mm), 1.0)
+      << "frame 7 is no longer read dry off the truth";
+  const std::vector<Measured> with = run(MeasurerConfig{}.water.memory_s);
+  EXPECT_TRUE(read_through(with[6]));
+  EXPECT_TRUE(refused_uncertain_with_water(with[7]))
+      << to_string(with[7].m.status) << " " << with[7].m.depth_mm << " mm";
 }
 
 }  // namespace

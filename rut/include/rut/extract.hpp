@@ -77,10 +77,12 @@ struct RutWorkspace {
   std::vector<double> ground_x, ground_z;  // the ground bins of the last line fit
   // Carried from frame to frame by the one caller that measures a sequence with this workspace (the
   // extract stage; measure()): the last waterline confirmed (WaterlineConfig::memory_s), at capture time
-  // waterline_t_ns, its level below the ground line and that level's standard uncertainty, mm. NaN: none.
+  // waterline_t_ns, its level below the ground line, that level's standard uncertainty and where it met
+  // the walls, mm. NaN level: none.
   std::int64_t waterline_t_ns = 0;
   double waterline_level_mm = std::numeric_limits<double>::quiet_NaN();
   double waterline_level_u_mm = 0.0;
+  double waterline_left_x_mm = 0.0, waterline_right_x_mm = 0.0;
 };
 
 // xyz: CV_32FC3 strip of 3D points (X, Y, Z in mm), a point is invalid if any coordinate is NaN/inf
