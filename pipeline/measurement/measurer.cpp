@@ -9,6 +9,7 @@
 #include <mutex>
 #include <stdexcept>
 #include <string>
+#include <utility>
 
 #include <opencv2/imgproc.hpp>
 
@@ -409,42 +410,15 @@ double bin_appearance(const cv::Mat& xyz, const cv::Mat& left, int first, const 
   return points > 0 ? y_sum / double(points) : 0.0;
 }
 
-// WaterlineConfig::memory_s: a waterline confirmed on a frame at most memory_s before t_ns, at the level of
-// `line` within twice their combined standard uncertainty and level_tolerance_mm.
-struct RecalledWaterline {
-  std::int64_t t_ns = 0;
-  Waterline line;  // found: the last frame confirmed it
-};
-
-// The waterline the last frame confirmed, taken out of the workspace: a frame that confirms none clears it.
-RecalledWaterline take_waterline(RutWorkspace& workspace) {
-  RecalledWaterline out;
-  out.t_ns = workspace.waterline_t_ns;
-  out.line.found = std::isfinite(workspace.waterline_level_mm);
-  out.line.level_mm = workspace.waterline_level_mm;
-  out.line.level_u_mm = workspace.waterline_level_u_mm;
-  out.line.left_x_mm = workspace.waterline_left_x_mm;
-  out.line.right_x_mm = workspace.waterline_right_x_mm;
-  workspace.waterline_level_mm = std::numeric_limits<double>::quiet_NaN();
-  return out;
-}
-
-void keep_waterline(RutWorkspace& workspace, const Waterline& line, std::int64_t t_ns) {
-  workspace.waterline_t_ns = t_ns;
-  workspace.waterline_level_mm = line.level_mm;
-  workspace.waterline_level_u_mm = line.level_u_mm;
-  workspace.waterline_left_x_mm = line.left_x_mm;
-  workspace.waterline_right_x_mm = line.right_x_mm;
-}
-
 // The last frame confirmed a waterline at most memory_s before t_ns.
-bool recent(const RecalledWaterline& last, std::int64_t t_ns, const WaterlineConfig& c) {
+bool recent(const WaterlineMemory& last, std::int64_t t_ns, const WaterlineConfig& c) {
   const double age_s = 1e-9 * static_cast<double>(t_ns - last.t_ns);
   return c.memory_s > 0.0 && last.line.found && age_s >= 0.0 && age_s <= c.memory_s;
 }
 
-// ... at the level of `line`, within twice their combined standard uncertainty and level_tolerance_mm.
-bool recalls_waterline(const RecalledWaterline& last, const Waterline& line, std::int64_t t_ns,
+// A recent waterline (above) at the level of `line`, within twice their combined standard uncertainty and
+// level_tolerance_mm.
+bool recalls_waterline(const WaterlineMemory& last, const Waterline& line, std::int64_t t_ns,
                        const WaterlineConfig& c) {
   const double tolerance = c.level_tolerance_mm + 2.0 * std::hypot(line.level_u_mm, last.line.level_u_mm);
   return recent(last, t_ns, c) && std::abs(line.level_mm - last.line.level_mm) <= tolerance;
@@ -465,7 +439,8 @@ void StereoMeasurer::read_through_water(FrameWork& w, RutWorkspace& workspace, c
   RutMeasurement& m = w.measurement;
   const WaterlineConfig& c = config_.water;
   if (!c.enabled || !depth_found(m.status) || !workspace.geometry.has_rut || !workspace.geometry.has_line) return;
-  const RecalledWaterline last = take_waterline(workspace);
+  // Taken out: a frame that confirms no waterline of its own passes none on.
+  const WaterlineMemory last = std::exchange(workspace.last_waterline, WaterlineMemory{});
   // The strip's noise for the texture, from sixteen of its rows (its own: rectification's interpolation
   // smooths the raw images' noise).
   const ImageSignal strip = image_signal(w.left_strip, first, first + strip_.rows, 16, w.checks.histogram);
@@ -511,7 +486,7 @@ void StereoMeasurer::read_through_water(FrameWork& w, RutWorkspace& workspace, c
       candidate = candidate && !recalled;
     }
   }
-  if (line.found && !candidate && !recalled) keep_waterline(workspace, line, w.frame.t_ns);
+  if (line.found && !candidate && !recalled) workspace.last_waterline = WaterlineMemory{w.frame.t_ns, line};
   if (!line.found) {
     // No waterline above a level span unlike the ground: a lid whose edges the walls do not show.
     if (lid.unlike_ground) {

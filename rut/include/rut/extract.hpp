@@ -6,14 +6,13 @@
 // the camera), so the results do not depend on image resolution. Nothing here throws or allocates on
 // the per-frame path once the caller-owned CrossSection and RutWorkspace have grown to the largest
 // section seen. Not thread-safe per object: use one CrossSection/RutWorkspace per thread.
-#include <cstdint>
-#include <limits>
 #include <vector>
 
 #include <opencv2/core.hpp>
 
 #include "core/cross_section.hpp"
 #include "core/rut_measurement.hpp"
+#include "rut/waterline.hpp"
 
 namespace rutd {
 
@@ -76,13 +75,8 @@ struct RutWorkspace {
   std::vector<double> c;
   std::vector<double> ground_x, ground_z;  // the ground bins of the last line fit
   // Carried from frame to frame by the one caller that measures a sequence with this workspace (the
-  // extract stage; measure()): the last waterline confirmed (WaterlineConfig::memory_s), at capture time
-  // waterline_t_ns, its level below the ground line, that level's standard uncertainty and where it met
-  // the walls, mm. NaN level: none.
-  std::int64_t waterline_t_ns = 0;
-  double waterline_level_mm = std::numeric_limits<double>::quiet_NaN();
-  double waterline_level_u_mm = 0.0;
-  double waterline_left_x_mm = 0.0, waterline_right_x_mm = 0.0;
+  // extract stage; measure()): the last waterline a frame confirmed.
+  WaterlineMemory last_waterline;
 };
 
 // xyz: CV_32FC3 strip of 3D points (X, Y, Z in mm), a point is invalid if any coordinate is NaN/inf

@@ -13,6 +13,7 @@
 // Where the profile stops at the waterline (a lid, turbid water matched on its surface) the bottom is
 // not seen and no depth may be published.
 #include <algorithm>
+#include <cstdint>
 #include <limits>
 #include <vector>
 
@@ -160,6 +161,13 @@ struct Waterline {
   // ... minus the flat ground's median on each side of the rut, the smaller (0 unless both have one sign)
   double submerged_ground_step = 0.0;
   double ground_spread = 0.0;  // robust spread of the step statistic over the ground
+};
+
+// The last waterline a frame confirmed by its own steps (WaterlineConfig::memory_s), carried to the next
+// frame; line.found false: none.
+struct WaterlineMemory {
+  std::int64_t t_ns = 0;  // that frame's capture time
+  Waterline line;
 };
 
 // What a brightness step must reach (find_waterline, find_level_span): min_step, and step_over_ground
