@@ -90,6 +90,9 @@ StereoMeasurer::StereoMeasurer(const StereoCalibration& calibration, const Measu
       if (row0 < 0 || row0 + strip_.rows > height || std::abs(row0 - strip_.row0) < strip_.rows) continue;
       MeasurerConfig g = config_;
       g.strip = StripConfig{.rows = strip_.rows, .first_row = row0, .guards = 0};
+      // A guard is measured only on the frames the strip finds OK: the frame before is not its last
+      // one, so it judges each frame alone.
+      g.water.memory_s = 0.0;
       // A GPU engine's guards match on the CPU: a device opened twice more for a strip each is dearer
       // than the CPU's few milliseconds, and the GPU's fallback is the match stage's to log.
       if (g.engine == EngineKind::Gpu) g.engine = EngineKind::Sgbm3Way;
@@ -424,6 +427,38 @@ bool recalls_waterline(const WaterlineMemory& last, const Waterline& line, std::
   return recent(last, t_ns, c) && std::abs(line.level_mm - last.line.level_mm) <= tolerance;
 }
 
+// A level span at the bottom of the profile, as wide and as flat as a lid must be (its lighting aside).
+bool level_and_flat(const LevelSpan& span, const WaterlineConfig& c) {
+  return span.right_x_mm - span.left_x_mm >= c.lid_min_width_mm &&
+         span.roughness_mm <= c.lid_roughness_ratio * span.ground_roughness_mm;
+}
+
+// The standard uncertainty of a level span's mean level: its bins' scatter over the root of their number.
+double span_level_u(const LevelSpan& span, double bin_mm) {
+  const double bins = bin_mm > 0.0 ? std::max(1.0, (span.right_x_mm - span.left_x_mm) / bin_mm + 1.0) : 1.0;
+  return span.roughness_mm / std::sqrt(bins);
+}
+
+// A lid found at most memory_s before t_ns (WaterlineConfig::memory_s), at the level of `span` within
+// level_tolerance_mm and twice their combined standard uncertainty, `span` level and flat as a lid is and
+// stepping at one end by what a candidate waterline's steps must reach.
+bool recalls_lid(const LidMemory& last, const LevelSpan& span, double span_u, std::int64_t t_ns,
+                 const WaterlineConfig& c) {
+  const double age_s = 1e-9 * static_cast<double>(t_ns - last.t_ns);
+  if (!(c.memory_s > 0.0 && last.found && age_s >= 0.0 && age_s <= c.memory_s && level_and_flat(span, c))) return false;
+  const double tolerance = c.level_tolerance_mm + 2.0 * std::hypot(span_u, last.level_u_mm);
+  const double edge = std::max(std::abs(span.left_step), std::abs(span.right_step));
+  const double need = c.candidate_step_over_ground / c.step_over_ground * span.step_threshold;
+  return std::abs(span.level_mm - last.level_mm) <= tolerance && edge >= need;
+}
+
+// A level span taken for a floating lid: the bottom is not seen.
+void refuse_as_lid(RutMeasurement& m, RutGeometry& g, const LevelSpan& lid) {
+  m.conditions |= kConditionWater;
+  mark_water(g, lid.level_mm, lid.left_x_mm, lid.right_x_mm);
+  m.status = RutStatus::BottomNotSeen;
+}
+
 }  // namespace
 
 // Standing water (rut/waterline.hpp): a level span at the bottom, not much rougher than the ground, lit
@@ -439,8 +474,6 @@ void StereoMeasurer::read_through_water(FrameWork& w, RutWorkspace& workspace, c
   RutMeasurement& m = w.measurement;
   const WaterlineConfig& c = config_.water;
   if (!c.enabled || !depth_found(m.status) || !workspace.geometry.has_rut || !workspace.geometry.has_line) return;
-  // Taken out: a frame that confirms no waterline of its own passes none on.
-  const WaterlineMemory last = std::exchange(workspace.last_waterline, WaterlineMemory{});
   // The strip's noise for the texture, from sixteen of its rows (its own: rectification's interpolation
   // smooths the raw images' noise).
   const ImageSignal strip = image_signal(w.left_strip, first, first + strip_.rows, 16, w.checks.histogram);
@@ -448,17 +481,36 @@ void StereoMeasurer::read_through_water(FrameWork& w, RutWorkspace& workspace, c
   const double y_mm = bin_appearance(measured, w.left_strip, first, w.section, noise_grey, w.bin_brightness,
                                      w.bin_texture, w.bin_pixels);
   const LevelSpan lid = find_level_span(w.section, w.bin_brightness, w.bin_texture, workspace.geometry, c, w.water);
-  const auto refuse_as_lid = [&] {
-    m.conditions |= kConditionWater;
-    mark_water(workspace.geometry, lid.level_mm, lid.left_x_mm, lid.right_x_mm);
-    m.status = RutStatus::BottomNotSeen;
-  };
+  const double lid_u = span_level_u(lid, w.section.dx_mm);
   // Lit unlike a wall, of another material than the soil, or brighter all round than soil there can be:
   // floating debris at that level.
   if (lid.found || lid.other_material || lid.brighter_all_round) {
-    refuse_as_lid();
+    refuse_as_lid(m, workspace.geometry, lid);
+    workspace.last_waterline = WaterlineMemory{};
+    workspace.last_lid = LidMemory{w.frame.t_ns, true, lid.level_mm, lid_u};
     return;
   }
+  // Taken out: a frame that confirms no waterline of its own passes none on. The lid is put back unless
+  // this frame finds one of its own: a frame that only recalls it does not renew it (one chance finding
+  // would carry on for ever), and one that finds it renews it though it would be recalled.
+  const WaterlineMemory last = std::exchange(workspace.last_waterline, WaterlineMemory{});
+  const LidMemory last_lid = std::exchange(workspace.last_lid, LidMemory{});
+  read_waterline(w, workspace, last, lid, lid_u, y_mm);
+  if (workspace.last_lid.found) return;
+  workspace.last_lid = last_lid;
+  // Published at the level of the lid a frame found a moment ago, stepping at an end by a candidate's
+  // share: that lid, lit here more like the soil.
+  if (m.status == RutStatus::Ok && recalls_lid(last_lid, lid, lid_u, w.frame.t_ns, c))
+    refuse_as_lid(m, workspace.geometry, lid);
+}
+
+// The waterline part of read_through_water: `last` is the waterline memory as the frame before left it,
+// `lid` this frame's level span (no lid by its own evidence). A lid this frame finds (a level span unlike
+// the ground under no waterline, a waterline the profile stops at) goes to workspace.last_lid.
+void StereoMeasurer::read_waterline(FrameWork& w, RutWorkspace& workspace, const WaterlineMemory& last,
+                                    const LevelSpan& lid, double lid_u, double y_mm) const {
+  RutMeasurement& m = w.measurement;
+  const WaterlineConfig& c = config_.water;
   Waterline line = find_waterline(w.section, w.bin_brightness, workspace.geometry, c, w.water);
   // Short of a waterline, a candidate (WaterlineConfig::candidate_step_over_ground): darkening below on
   // both walls and over the whole span between them by at least wetting's least (min_step), as wet soil
@@ -490,7 +542,8 @@ void StereoMeasurer::read_through_water(FrameWork& w, RutWorkspace& workspace, c
   if (!line.found) {
     // No waterline above a level span unlike the ground: a lid whose edges the walls do not show.
     if (lid.unlike_ground) {
-      refuse_as_lid();
+      refuse_as_lid(m, workspace.geometry, lid);
+      workspace.last_lid = LidMemory{w.frame.t_ns, true, lid.level_mm, lid_u};
     } else if (recent(last, w.frame.t_ns, c)) {
       // No steps at all, a moment after the last frame confirmed a waterline: the water may well be
       // there, its steps too faint on these walls. Read both ways at its level, as a candidate is (so
@@ -520,6 +573,12 @@ void StereoMeasurer::read_through_water(FrameWork& w, RutWorkspace& workspace, c
       share_seen_below(w.section, workspace.geometry, line, margin) < c.min_share_seen_below) {
     mark(workspace.geometry);
     m.status = RutStatus::BottomNotSeen;
+    // The surface hides the bottom at the waterline's level: a lid (or opaque water) the next frames may
+    // show lit like the soil. Only a waterline placed within half the level tolerance (its standard
+    // uncertainty): a looser one's recall would reach millimetres above and below it (the shading steps
+    // of a clean rut's bottom, placed to 0.6-1.9 mm, recalled bottoms 0.5-4 mm off their level).
+    if (line.level_u_mm <= 0.5 * c.level_tolerance_mm)
+      workspace.last_lid = LidMemory{w.frame.t_ns, true, line.level_mm, line.level_u_mm};
     return;
   }
   const RutGeometry apparent = workspace.geometry;

@@ -8,6 +8,12 @@
 // that only recalled its waterline (a chain would carry one chance confirmation on for ever).
 // And where a frame shows no steps at all a moment after one that confirmed a waterline (19 mm of clear
 // water on snow), it is read both ways at that level: never the dry depth, 4.8 mm short, published OK.
+// The lid's memory: leaves float on 12 mm of water in a 45 mm grass rut. Where a frame's profile stops
+// at a waterline or its level span is lit unlike the soil, the bottom is hidden; on the frames between,
+// the leaves are lit much like the soil and the lid alone is published as the bottom, 12 mm short. At the
+// level of the lid found a moment before, such a frame is refused BOTTOM_NOT_SEEN; not after a longer gap
+// than memory_s, and a frame that only recalled the lid does not renew it. A clean rut whose flat bottom
+// was once taken for a lid stays measured: its bottom is lit like its walls.
 #include <cmath>
 #include <cstdint>
 #include <string>
@@ -118,6 +124,86 @@ TEST(WaterlineMemory, AFrameWithoutStepsRightAfterAWaterlineIsReadBothWays) {
   EXPECT_TRUE(read_through(with[6]));
   EXPECT_TRUE(refused_uncertain_with_water(with[7]))
       << to_string(with[7].m.status) << " " << with[7].m.depth_mm << " mm";
+}
+
+// The scene matrix's lid-leaves-grass-22, its frames measured in order with and without the memory.
+class LidMemoryTest : public ::testing::Test {
+ protected:
+  const SyntheticRenderer renderer{parse_scene_line(
+      "--texture grass --depth 45.5 --width 182 --bottom-width 74 --pile-left 3.2 --pile-right 3.9 --baseline 43 "
+      "--height 374 --roll 2.3 --seed 1322 --water-level 12.3 --debris 0.70 --debris-kind leaves "
+      "--water-attenuation 0.486")};
+
+  // Frames `indices` in turn, each captured shift_ns later than the renderer says (one shift per frame).
+  std::vector<Measured> run(const std::vector<std::uint64_t>& indices, double memory_s,
+                            const std::vector<std::int64_t>& shift_ns = {}) const {
+    MeasurerConfig config;
+    config.water.memory_s = memory_s;
+    StereoMeasurer m(renderer.calibration(), config);
+    std::vector<Measured> out;
+    for (std::size_t k = 0; k < indices.size(); ++k)
+      out.push_back(measure(m, renderer, indices[k], k < shift_ns.size() ? shift_ns[k] : 0));
+    return out;
+  }
+};
+
+bool bottom_hidden(const Measured& r) {
+  return r.m.status == RutStatus::BottomNotSeen && (r.m.conditions & kConditionWater) != 0;
+}
+
+bool published_off_truth(const Measured& r) {
+  return r.m.status == RutStatus::Ok && std::abs(r.m.depth_mm - r.truth_mm) > 1.0;
+}
+
+TEST_F(LidMemoryTest, AFrameAtTheLevelOfALidFoundAMomentAgoIsRefused) {
+  const std::vector<std::uint64_t> all{0, 1, 2, 3, 4, 5, 6, 7};
+  const std::vector<Measured> without = run(all, 0.0);
+  ASSERT_TRUE(bottom_hidden(without[1])) << to_string(without[1].m.status) << ": frame 1 no longer finds the lid";
+  for (const std::size_t i : {3U, 7U})
+    ASSERT_TRUE(published_off_truth(without[i]))
+        << "frame " << i << " without the memory: " << to_string(without[i].m.status) << " " << without[i].m.depth_mm
+        << " mm, truth " << without[i].truth_mm << ": the scene no longer tests the case";
+  const std::vector<Measured> with = run(all, MeasurerConfig{}.water.memory_s);
+  int refused = 0;
+  for (const std::size_t i : {3U, 7U}) {
+    EXPECT_TRUE(bottom_hidden(with[i])) << "frame " << i << ": " << to_string(with[i].m.status) << " "
+                                        << with[i].m.depth_mm << " mm, truth " << with[i].truth_mm;
+    refused += bottom_hidden(with[i]);
+  }
+  EXPECT_EQ(refused, 2);
+}
+
+TEST_F(LidMemoryTest, ALidIsForgottenAfterMemorySAndNotRenewedByARecall) {
+  // Frame 1 (captured at 33 ms) finds the lid. Frame 3 captured 0.6 s later than it: not recalled.
+  const std::vector<Measured> late = run({0, 1, 3}, MeasurerConfig{}.water.memory_s, {0, 0, 600'000'000});
+  ASSERT_TRUE(bottom_hidden(late[1]));
+  EXPECT_TRUE(published_off_truth(late[2])) << to_string(late[2].m.status) << ": recalled after 0.63 s";
+  // Frame 3 at 100 ms recalls the lid; frame 7 at 583 ms is 550 ms after the finding and 483 ms after the
+  // recall: a recall that renewed the memory would refuse it.
+  const std::vector<Measured> chain = run({0, 1, 3, 7}, MeasurerConfig{}.water.memory_s, {0, 0, 0, 350'000'000});
+  ASSERT_TRUE(bottom_hidden(chain[2]));
+  EXPECT_NE(chain[3].m.status, RutStatus::BottomNotSeen) << "the recall renewed the lid";
+}
+
+// The scene matrix's clean-gain-mud-21: frame 2's profile stops at a pair of brightening steps placed at
+// its flat bottom, taken for a lid's waterline (a false alarm of its own); the frames after it show their
+// bottom at that level, lit like the walls.
+TEST(LidMemory, ACleanRutAfterAFalseFindingStaysMeasured) {
+  const SyntheticRenderer renderer(parse_scene_line(
+      "--texture mud --depth 60.8 --width 299 --bottom-width 179 --pile-left 7.1 --pile-right 17.7 --offset 6 "
+      "--baseline 84 --height 463 --hfov 75 --roll 2.9 --pitch -1.2 --noise 1.19 --speed 2122 "
+      "--right-response 1.024 --seed 2021 --exposure 1.007 --gain 2.46"));
+  StereoMeasurer m(renderer.calibration(), MeasurerConfig{});
+  std::vector<Measured> r;
+  for (std::uint64_t i = 0; i < 8; ++i) r.push_back(measure(m, renderer, i));
+  ASSERT_TRUE(bottom_hidden(r[2])) << to_string(r[2].m.status) << ": frame 2 no longer raises the case";
+  int within = 0;
+  for (std::size_t i = 3; i < r.size(); ++i) {
+    EXPECT_EQ(r[i].m.status, RutStatus::Ok)
+        << "frame " << i << " (" << (r[i].m.conditions & kConditionWater ? "Water" : "") << ")";
+    within += r[i].m.status == RutStatus::Ok && std::abs(r[i].m.depth_mm - r[i].truth_mm) <= 1.0;
+  }
+  EXPECT_EQ(within, 5);
 }
 
 }  // namespace

@@ -75,8 +75,9 @@ struct RutWorkspace {
   std::vector<double> c;
   std::vector<double> ground_x, ground_z;  // the ground bins of the last line fit
   // Carried from frame to frame by the one caller that measures a sequence with this workspace (the
-  // extract stage; measure()): the last waterline a frame confirmed.
+  // extract stage; measure()): the last waterline a frame confirmed, and the last lid it found.
   WaterlineMemory last_waterline;
+  LidMemory last_lid;
 };
 
 // xyz: CV_32FC3 strip of 3D points (X, Y, Z in mm), a point is invalid if any coordinate is NaN/inf

@@ -75,6 +75,10 @@ struct WaterlineConfig {
   // where the last showed them above it. A candidate waterline at the level of a waterline confirmed at
   // most memory_s before (capture times), within twice their levels' combined standard uncertainty and
   // level_tolerance_mm, is that water's waterline. 0: off.
+  // So does a floating lid: one frame's lid is lit like the soil on its walls where the last one's was
+  // not. A level flat span at the bottom of the profile at the level of a lid (or of a waterline the
+  // profile stopped at) found at most memory_s before, within level_tolerance_mm and twice their
+  // levels' combined standard uncertainty, is that lid: the bottom is not seen.
   double memory_s = 0.5;
 
   // A floating lid (foam, leaves, litter on the water) where no pair of steps marks the waterline
@@ -168,6 +172,15 @@ struct Waterline {
 struct WaterlineMemory {
   std::int64_t t_ns = 0;  // that frame's capture time
   Waterline line;
+};
+
+// The last surface a frame found hiding the bottom at a known level (WaterlineConfig::memory_s): a
+// floating lid, or a waterline the profile stops at. found false: none.
+struct LidMemory {
+  std::int64_t t_ns = 0;  // that frame's capture time
+  bool found = false;
+  double level_mm = 0.0;    // depth of the surface below the ground line, mm
+  double level_u_mm = 0.0;  // its standard uncertainty, mm
 };
 
 // What a brightness step must reach (find_waterline, find_level_span): min_step, and step_over_ground
