@@ -76,9 +76,11 @@ struct WaterlineConfig {
   // most memory_s before (capture times), within twice their levels' combined standard uncertainty and
   // level_tolerance_mm, is that water's waterline. 0: off.
   // So does a floating lid: one frame's lid is lit like the soil on its walls where the last one's was
-  // not. A level flat span at the bottom of the profile at the level of a lid (or of a waterline the
-  // profile stopped at) found at most memory_s before, within level_tolerance_mm and twice their
-  // levels' combined standard uncertainty, is that lid: the bottom is not seen.
+  // not. A level span at the bottom of a profile that would be published, at the level of a lid (or of
+  // a waterline the profile stopped at) found at most memory_s before, within level_tolerance_mm and
+  // twice their levels' combined standard uncertainty, stepping at one end by a candidate waterline's
+  // share of the threshold, is that lid: the bottom is not seen (StereoMeasurer). Guard strips judge
+  // each frame alone.
   double memory_s = 0.5;
 
   // A floating lid (foam, leaves, litter on the water) where no pair of steps marks the waterline
