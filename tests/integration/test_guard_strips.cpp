@@ -87,10 +87,15 @@ TEST(GuardStrips, ALidTheStripTookForTheBottomIsRefusedWithWater) {
       scene("--texture sand --depth 46.4 --width 235 --bottom-width 113 --pile-left 0.9 --pile-right 8.4 --baseline 92 "
             "--height 437 --roll -2.7 --seed 1312 --water-level 22.3 --debris 0.50 --debris-kind foam "
             "--water-attenuation 0.018"));
+  // Each frame judged alone, as the guards judge theirs: with the lid's memory (WaterlineConfig::memory_s)
+  // the strip itself refuses the frames after one that found the foam, and the guards would not be asked.
   MeasurerConfig alone_config;
   alone_config.strip.guards = 0;
+  alone_config.water.memory_s = 0.0;
+  MeasurerConfig guarded_config = rutd::guarded();
+  guarded_config.water.memory_s = 0.0;
   StereoMeasurer alone(renderer.calibration(), alone_config);
-  StereoMeasurer guarded(renderer.calibration(), rutd::guarded());
+  StereoMeasurer guarded(renderer.calibration(), guarded_config);
   int wrong_alone = 0, refused = 0;
   for (std::uint64_t i = 0; i < 4; ++i) {
     StereoFrame frame;

@@ -57,6 +57,13 @@ TEST(TrafficabilityLive, RunMeasuresOnDistanceAndReplayGivesTheSameSegments) {
   ASSERT_NE(run_log.find(", 0 dropped (writer behind)"), std::string::npos)
       << "the recording dropped pairs: replay cannot match\n"
       << run_log;
+  // Replay measures every recorded pair in order; live must have measured them all too (a pair the pipeline
+  // dropped or refused as stale is in the recording but in no live segment), or the two cannot match.
+  std::smatch pipeline;
+  ASSERT_TRUE(std::regex_search(run_log, pipeline, std::regex(R"(dropped (\d+) stale (\d+) rejected)"))) << run_log;
+  ASSERT_TRUE(pipeline[1] == "0" && pipeline[2] == "0")
+      << "the live pipeline dropped or refused pairs the recording holds: replay cannot match\n"
+      << run_log;
   ASSERT_TRUE(fs::exists(rec / "vehicle.log"));
   ASSERT_EQ(test::run_rutd("replay " + quoted(rec) + " --out /dev/null --segments " + quoted(tmp.path() / "replay.csv"),
                            (tmp.path() / "replay.log").string()),
