@@ -195,10 +195,11 @@ TEST(LidMemory, FoamLitLikeTheSoilIsRecalledHoweverRough) {
 TEST(LidMemory, ALidIsForgottenAfterMemorySAndNotRenewedByARecall) {
   const SyntheticRenderer renderer(parse_scene_line(kLeavesOnGrass));
   const double memory_s = MeasurerConfig{}.water.memory_s;
-  // Frame 1 (captured at 33 ms) finds the lid. Frame 3 captured 0.6 s later than it: not recalled.
+  // Frame 1 (captured at 33 ms) finds the lid. Frame 3, captured 0.6 s late (at 700 ms, 667 ms after the finding): not
+  // recalled.
   const std::vector<Measured> late = run(renderer, {0, 1, 3}, memory_s, {0, 0, 600'000'000});
   ASSERT_TRUE(bottom_hidden(late[1]));
-  EXPECT_TRUE(published_off_truth(late[2])) << to_string(late[2].m.status) << ": recalled after 0.63 s";
+  EXPECT_TRUE(published_off_truth(late[2])) << to_string(late[2].m.status) << ": recalled after 0.67 s";
   // Frame 3 at 100 ms recalls the lid; frame 7 at 583 ms is 550 ms after the finding and 483 ms after the
   // recall: a recall that renewed the memory would refuse it.
   const std::vector<Measured> chain = run(renderer, {0, 1, 3, 7}, memory_s, {0, 0, 0, 350'000'000});
