@@ -413,10 +413,15 @@ double bin_appearance(const cv::Mat& xyz, const cv::Mat& left, int first, const 
   return points > 0 ? y_sum / double(points) : 0.0;
 }
 
+// Captured at then_ns, at most memory_s before t_ns (WaterlineConfig::memory_s; 0: never).
+bool within_memory(std::int64_t then_ns, std::int64_t t_ns, const WaterlineConfig& c) {
+  const double age_s = 1e-9 * static_cast<double>(t_ns - then_ns);
+  return c.memory_s > 0.0 && age_s >= 0.0 && age_s <= c.memory_s;
+}
+
 // The last frame confirmed a waterline at most memory_s before t_ns.
 bool recent(const WaterlineMemory& last, std::int64_t t_ns, const WaterlineConfig& c) {
-  const double age_s = 1e-9 * static_cast<double>(t_ns - last.t_ns);
-  return c.memory_s > 0.0 && last.line.found && age_s >= 0.0 && age_s <= c.memory_s;
+  return last.line.found && within_memory(last.t_ns, t_ns, c);
 }
 
 // A recent waterline (above) at the level of `line`, within twice their combined standard uncertainty and
@@ -440,9 +445,7 @@ double span_level_u(const LevelSpan& span, double bin_mm) {
 // bin) foam and leaves lit like the soil scatter 5-10 times more.
 bool recalls_lid(const LidMemory& last, const LevelSpan& span, double span_u, std::int64_t t_ns,
                  const WaterlineConfig& c) {
-  const double age_s = 1e-9 * static_cast<double>(t_ns - last.t_ns);
-  if (!(c.memory_s > 0.0 && last.found && age_s >= 0.0 && age_s <= c.memory_s &&
-        span.right_x_mm - span.left_x_mm >= c.lid_min_width_mm))
+  if (!(last.found && within_memory(last.t_ns, t_ns, c) && span.right_x_mm - span.left_x_mm >= c.lid_min_width_mm))
     return false;
   const double tolerance = c.level_tolerance_mm + 2.0 * std::hypot(span_u, last.level_u_mm);
   const double edge = std::max(std::abs(span.left_step), std::abs(span.right_step));

@@ -59,6 +59,21 @@ bool refused_uncertain_with_water(const Measured& r) {
   return r.m.status == RutStatus::Uncertain && (r.m.conditions & kConditionWater) != 0;
 }
 
+// Frames `indices` of the scene in turn, each captured shift_ns later than the renderer says (one shift
+// per frame), by one measurer with the given memory.
+std::vector<Measured> run(const SyntheticRenderer& renderer, const std::vector<std::uint64_t>& indices, double memory_s,
+                          const std::vector<std::int64_t>& shift_ns = {}) {
+  MeasurerConfig config;
+  config.water.memory_s = memory_s;
+  StereoMeasurer m(renderer.calibration(), config);
+  std::vector<Measured> out;
+  for (std::size_t k = 0; k < indices.size(); ++k)
+    out.push_back(measure(m, renderer, indices[k], k < shift_ns.size() ? shift_ns[k] : 0));
+  return out;
+}
+
+const std::vector<std::uint64_t> kEightFrames{0, 1, 2, 3, 4, 5, 6, 7};
+
 TEST(WaterlineMemory, ACandidateAtTheLevelTheLastFrameConfirmedIsReadThrough) {
   const SyntheticRenderer renderer(parse_scene_line(kClearWaterOnMud));
   const StereoCalibration& cal = renderer.calibration();
@@ -107,37 +122,16 @@ TEST(WaterlineMemory, AFrameWithoutStepsRightAfterAWaterlineIsReadBothWays) {
   const SyntheticRenderer renderer(parse_scene_line(
       "--texture snow --depth 43.4 --width 252 --bottom-width 87 --pile-left 10.1 --pile-right 10.5 --baseline 68 "
       "--height 428 --roll 0.1 --seed 1009 --water-level 19.4 --water-attenuation 0.0030 --water-colour 0.08"));
-  const auto run = [&](double memory_s) {
-    MeasurerConfig config;
-    config.water.memory_s = memory_s;
-    StereoMeasurer m(renderer.calibration(), config);
-    std::vector<Measured> out;
-    for (std::uint64_t i = 0; i < 8; ++i) out.push_back(measure(m, renderer, i));
-    return out;
-  };
-  const std::vector<Measured> without = run(0.0);
+  const std::vector<Measured> without = run(renderer, kEightFrames, 0.0);
   ASSERT_TRUE(read_through(without[6])) << to_string(without[6].m.status) << " " << without[6].m.depth_mm << " mm";
   ASSERT_EQ(without[7].m.status, RutStatus::Ok) << "the scene no longer tests the case";
   ASSERT_EQ(without[7].m.conditions & kConditionWater, 0U);
   ASSERT_GT(std::abs(without[7].m.depth_mm - without[7].truth_mm), 1.0)
       << "frame 7 is no longer read dry off the truth";
-  const std::vector<Measured> with = run(MeasurerConfig{}.water.memory_s);
+  const std::vector<Measured> with = run(renderer, kEightFrames, MeasurerConfig{}.water.memory_s);
   EXPECT_TRUE(read_through(with[6]));
   EXPECT_TRUE(refused_uncertain_with_water(with[7]))
       << to_string(with[7].m.status) << " " << with[7].m.depth_mm << " mm";
-}
-
-// Frames `indices` of the scene in turn, each captured shift_ns later than the renderer says (one shift
-// per frame), by one measurer with the given memory.
-std::vector<Measured> run(const SyntheticRenderer& renderer, const std::vector<std::uint64_t>& indices, double memory_s,
-                          const std::vector<std::int64_t>& shift_ns = {}) {
-  MeasurerConfig config;
-  config.water.memory_s = memory_s;
-  StereoMeasurer m(renderer.calibration(), config);
-  std::vector<Measured> out;
-  for (std::size_t k = 0; k < indices.size(); ++k)
-    out.push_back(measure(m, renderer, indices[k], k < shift_ns.size() ? shift_ns[k] : 0));
-  return out;
 }
 
 bool bottom_hidden(const Measured& r) {
@@ -147,8 +141,6 @@ bool bottom_hidden(const Measured& r) {
 bool published_off_truth(const Measured& r) {
   return r.m.status == RutStatus::Ok && std::abs(r.m.depth_mm - r.truth_mm) > 1.0;
 }
-
-const std::vector<std::uint64_t> kEightFrames{0, 1, 2, 3, 4, 5, 6, 7};
 
 // The scene matrix's lid-leaves-grass-22.
 const char* kLeavesOnGrass =
