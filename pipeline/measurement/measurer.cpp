@@ -443,14 +443,20 @@ double span_level_u(const LevelSpan& span, double bin_mm) {
 // stepping at one end by what a candidate waterline's steps must reach. Its roughness is not judged: the
 // level is the lid's, and against ground as smooth as rendered sand and grass (0.01-0.02 mm from bin to
 // bin) foam and leaves lit like the soil scatter 5-10 times more.
+// A lid found at most memory_s before t_ns at level_mm (standard uncertainty level_u_mm), within
+// level_tolerance_mm and twice their combined standard uncertainty.
+bool lid_at_level(const LidMemory& last, double level_mm, double level_u_mm, std::int64_t t_ns,
+                  const WaterlineConfig& c) {
+  const double tolerance = c.level_tolerance_mm + 2.0 * std::hypot(level_u_mm, last.level_u_mm);
+  return last.found && within_memory(last.t_ns, t_ns, c) && std::abs(level_mm - last.level_mm) <= tolerance;
+}
+
 bool recalls_lid(const LidMemory& last, const LevelSpan& span, double span_u, std::int64_t t_ns,
                  const WaterlineConfig& c) {
-  if (!(last.found && within_memory(last.t_ns, t_ns, c) && span.right_x_mm - span.left_x_mm >= c.lid_min_width_mm))
-    return false;
-  const double tolerance = c.level_tolerance_mm + 2.0 * std::hypot(span_u, last.level_u_mm);
+  if (span.right_x_mm - span.left_x_mm < c.lid_min_width_mm) return false;
   const double edge = std::max(std::abs(span.left_step), std::abs(span.right_step));
   const double need = c.candidate_step_over_ground / c.step_over_ground * span.step_threshold;
-  return std::abs(span.level_mm - last.level_mm) <= tolerance && edge >= need;
+  return edge >= need && lid_at_level(last, span.level_mm, span_u, t_ns, c);
 }
 
 // A level span taken for a floating lid: the bottom is not seen.
@@ -496,7 +502,7 @@ void StereoMeasurer::read_through_water(FrameWork& w, RutWorkspace& workspace, c
   // would carry on for ever), and one that finds it renews it though it would be recalled.
   const WaterlineMemory last = std::exchange(workspace.last_waterline, WaterlineMemory{});
   const LidMemory last_lid = std::exchange(workspace.last_lid, LidMemory{});
-  read_waterline(w, workspace, last, lid, lid_u, y_mm);
+  read_waterline(w, workspace, last, last_lid, lid, lid_u, y_mm);
   if (workspace.last_lid.found) return;
   workspace.last_lid = last_lid;
   // Published at the level of the lid a frame found a moment ago, stepping at an end by a candidate's
@@ -509,7 +515,7 @@ void StereoMeasurer::read_through_water(FrameWork& w, RutWorkspace& workspace, c
 // `lid` this frame's level span (no lid by its own evidence). A lid this frame finds (a level span unlike
 // the ground under no waterline, a waterline the profile stops at) goes to workspace.last_lid.
 void StereoMeasurer::read_waterline(FrameWork& w, RutWorkspace& workspace, const WaterlineMemory& last,
-                                    const LevelSpan& lid, double lid_u, double y_mm) const {
+                                    const LidMemory& last_lid, const LevelSpan& lid, double lid_u, double y_mm) const {
   RutMeasurement& m = w.measurement;
   const WaterlineConfig& c = config_.water;
   Waterline line = find_waterline(w.section, w.bin_brightness, workspace.geometry, c, w.water);
@@ -577,6 +583,12 @@ void StereoMeasurer::read_waterline(FrameWork& w, RutWorkspace& workspace, const
     // The surface hides the bottom at the waterline's level: a lid (or opaque water) the next frames may
     // show lit like the soil.
     workspace.last_lid = LidMemory{w.frame.t_ns, true, line.level_mm, line.level_u_mm};
+    return;
+  }
+  // A waterline at the level of a lid found a moment ago: the same debris, the bottom seen in its gaps.
+  if (lid_at_level(last_lid, line.level_mm, line.level_u_mm, w.frame.t_ns, c)) {
+    mark(workspace.geometry);
+    m.status = RutStatus::BottomNotSeen;
     return;
   }
   const RutGeometry apparent = workspace.geometry;

@@ -13,7 +13,8 @@
 // the leaves are lit much like the soil and the lid alone is published as the bottom, 12 mm short. At the
 // level of the lid found a moment before, such a frame is refused BOTTOM_NOT_SEEN; not after a longer gap
 // than memory_s, and a frame that only recalled the lid does not renew it. Foam lit like grass is
-// recalled though rougher than a lid found by its own evidence may be. A clean rut whose flat bottom was
+// recalled though rougher than a lid found by its own evidence may be. A waterline at the lid's level is not
+// read through: the bottom it shows is seen only in the lid's gaps. A clean rut whose flat bottom was
 // once taken for a lid stays measured: its bottom is lit like its walls.
 #include <cmath>
 #include <cstdint>
@@ -182,6 +183,23 @@ TEST(LidMemory, FoamLitLikeTheSoilIsRecalledHoweverRough) {
                                 "--debris 0.54 --debris-kind foam --water-attenuation 0.005",
                                 {6, 7}),
             2);
+}
+
+// The scene matrix's lid-leaves-sand-01: leaves on 26 mm of water in a 48 mm sand rut. On frames 2 and 7
+// a waterline steps on both walls and stereo finds depths below it through gaps between the leaves, so the
+// frame alone is read through the surface and published with Water, 12-18 mm short. At the level of the
+// lid the frames before found, the bottom is not seen there either.
+TEST(LidMemory, AWaterlineAtTheLevelOfALidFoundAMomentAgoIsNotReadThrough) {
+  const char* scene =
+      "--texture sand --depth 48.1 --width 208 --bottom-width 62 --pile-left 13.5 --pile-right 12.5 --baseline 59 "
+      "--height 444 --roll 3.8 --seed 1301 --water-level 26.2 --debris 0.54 --debris-kind leaves "
+      "--water-attenuation 0.027";
+  const SyntheticRenderer renderer(parse_scene_line(scene));
+  const std::vector<Measured> without = run(renderer, kEightFrames, 0.0);
+  for (const std::size_t i : {2, 7})
+    EXPECT_TRUE(without[i].m.conditions & kConditionWater)
+        << "frame " << i << " without the memory is not read through: the scene no longer tests the case";
+  EXPECT_EQ(refused_with_memory(scene, {2, 7}), 2);
 }
 
 TEST(LidMemory, ALidIsForgottenAfterMemorySAndNotRenewedByARecall) {

@@ -79,8 +79,9 @@ struct WaterlineConfig {
   // not. A level span at the bottom of a profile that would be published, at the level of a lid (or of
   // a waterline the profile stopped at) found at most memory_s before, within level_tolerance_mm and
   // twice their levels' combined standard uncertainty, stepping at one end by a candidate waterline's
-  // share of the threshold, is that lid: the bottom is not seen (StereoMeasurer). Guard strips judge
-  // each frame alone.
+  // share of the threshold, is that lid: the bottom is not seen (StereoMeasurer). Nor is a waterline at
+  // such a lid's level read through: what stereo finds below it is the bottom in the debris' gaps. Guard
+  // strips judge each frame alone.
   double memory_s = 0.5;
 
   // A floating lid (foam, leaves, litter on the water) where no pair of steps marks the waterline

@@ -194,8 +194,8 @@ class StereoMeasurer {
   DisparityBand estimate_band(FrameWork& w, MatchContext& context) const;
   DicConfig strip_dic_config() const;
   void read_through_water(FrameWork& w, RutWorkspace& workspace, const cv::Mat& measured, int first) const;
-  void read_waterline(FrameWork& w, RutWorkspace& workspace, const WaterlineMemory& last, const LevelSpan& lid,
-                      double lid_u, double y_mm) const;
+  void read_waterline(FrameWork& w, RutWorkspace& workspace, const WaterlineMemory& last, const LidMemory& last_lid,
+                      const LevelSpan& lid, double lid_u, double y_mm) const;
   void weigh_candidate_waterline(FrameWork& w, RutWorkspace& workspace, const Waterline& line, double y_mm) const;
   // An OK frame measured again on the guard strips (StripConfig::guards), and refused where one finds water.
   void check_guards(FrameWork& w) const;
