@@ -454,9 +454,17 @@ bool lid_at_level(const LidMemory& last, double level_mm, double level_u_mm, std
 bool recalls_lid(const LidMemory& last, const LevelSpan& span, double span_u, std::int64_t t_ns,
                  const WaterlineConfig& c) {
   if (span.right_x_mm - span.left_x_mm < c.lid_min_width_mm) return false;
-  const double edge = std::max(std::abs(span.left_step), std::abs(span.right_step));
+  // An end without a wall beyond it (NaN) leaves the other to judge.
+  const double edge = std::fmax(std::abs(span.left_step), std::abs(span.right_step));
   const double need = c.candidate_step_over_ground / c.step_over_ground * span.step_threshold;
   return edge >= need && lid_at_level(last, span.level_mm, span_u, t_ns, c);
+}
+
+// A lid found at `level_mm` at t_ns, `before` the memory as the frame before left it: confirmed where
+// that frame, at most memory_s before, found a lid at the same level.
+LidMemory lid_found(const LidMemory& before, std::int64_t t_ns, double level_mm, double level_u_mm,
+                    const WaterlineConfig& c) {
+  return LidMemory{t_ns, true, level_mm, level_u_mm, lid_at_level(before, level_mm, level_u_mm, t_ns, c)};
 }
 
 // A level span taken for a floating lid: the bottom is not seen.
@@ -494,7 +502,7 @@ void StereoMeasurer::read_through_water(FrameWork& w, RutWorkspace& workspace, c
   if (lid.found || lid.other_material || lid.brighter_all_round) {
     refuse_as_lid(m, workspace.geometry, lid);
     workspace.last_waterline = WaterlineMemory{};
-    workspace.last_lid = LidMemory{w.frame.t_ns, true, lid.level_mm, lid_u};
+    workspace.last_lid = lid_found(workspace.last_lid, w.frame.t_ns, lid.level_mm, lid_u, c);
     return;
   }
   // Taken out: a frame that confirms no waterline of its own passes none on. The lid is put back unless
@@ -503,12 +511,26 @@ void StereoMeasurer::read_through_water(FrameWork& w, RutWorkspace& workspace, c
   const WaterlineMemory last = std::exchange(workspace.last_waterline, WaterlineMemory{});
   const LidMemory last_lid = std::exchange(workspace.last_lid, LidMemory{});
   read_waterline(w, workspace, last, last_lid, lid, lid_u, y_mm);
-  if (workspace.last_lid.found) return;
+  if (workspace.last_lid.found) {
+    const LidMemory& now = workspace.last_lid;
+    workspace.last_lid = lid_found(last_lid, now.t_ns, now.level_mm, now.level_u_mm, c);
+    return;
+  }
   workspace.last_lid = last_lid;
+  if (m.status != RutStatus::Ok) return;
   // Published at the level of the lid a frame found a moment ago, stepping at an end by a candidate's
-  // share: that lid, lit here more like the soil.
-  if (m.status == RutStatus::Ok && recalls_lid(last_lid, lid, lid_u, w.frame.t_ns, c))
+  // share: that lid, lit here more like the soil. A lid found on two frames running is recalled by a
+  // profile whose deepest point lies at its level, however narrow its level span and faint its steps.
+  if (recalls_lid(last_lid, lid, lid_u, w.frame.t_ns, c)) {
     refuse_as_lid(m, workspace.geometry, lid);
+  } else if (last_lid.confirmed && lid_at_level(last_lid, m.depth_mm, m.depth_uncertainty_mm, w.frame.t_ns, c)) {
+    // Where the surface meets the walls is not known here: the level span's ends, or the deepest point.
+    RutGeometry& g = workspace.geometry;
+    const bool span = lid.right_x_mm > lid.left_x_mm;
+    m.conditions |= kConditionWater;
+    mark_water(g, last_lid.level_mm, span ? lid.left_x_mm : g.deepest_x_mm, span ? lid.right_x_mm : g.deepest_x_mm);
+    m.status = RutStatus::BottomNotSeen;
+  }
 }
 
 // The waterline part of read_through_water: `last` is the waterline memory as the frame before left it,

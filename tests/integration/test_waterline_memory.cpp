@@ -13,7 +13,8 @@
 // the leaves are lit much like the soil and the lid alone is published as the bottom, 12 mm short. At the
 // level of the lid found a moment before, such a frame is refused BOTTOM_NOT_SEEN; not after a longer gap
 // than memory_s, and a frame that only recalled the lid does not renew it. Foam lit like grass is
-// recalled though rougher than a lid found by its own evidence may be. A waterline at the lid's level is not
+// recalled though rougher than a lid found by its own evidence may be. A lid found on two frames running
+// is recalled by any profile that ends at its level. A waterline at the lid's level is not
 // read through: the bottom it shows is seen only in the lid's gaps. A clean rut whose flat bottom was
 // once taken for a lid stays measured: its bottom is lit like its walls.
 #include <cmath>
@@ -172,6 +173,14 @@ int refused_with_memory(const char* scene, const std::vector<std::size_t>& lids)
 TEST(LidMemory, AFrameAtTheLevelOfALidFoundAMomentAgoIsRefused) {
   // Frame 1 finds the lid (its profile stops at the waterline); frames 3 and 7 show leaves lit like grass.
   EXPECT_EQ(refused_with_memory(kLeavesOnGrass, {3, 7}), 2);
+}
+
+// Frames 0 and 1 find the lid (their profiles stop at the waterline), frames 3-5 and 7 too. Frames 2 and 6
+// show it lit like the grass, their level spans stepping against the walls by 0.43 and 0.49 of the
+// threshold, short of the half a lone finding's recall needs; but the lid was found on two frames
+// running, and their profiles end at its level.
+TEST(LidMemory, ALidFoundTwiceRunningIsRecalledByAProfileEndingAtItsLevel) {
+  EXPECT_EQ(refused_with_memory(kLeavesOnGrass, {2, 6}), 2);
 }
 
 // The scene matrix's lid-foam-grass-21: frames 0-5 find the foam by their own evidence; on frames 6 and 7

@@ -79,7 +79,8 @@ struct WaterlineConfig {
   // not. A level span at the bottom of a profile that would be published, at the level of a lid (or of
   // a waterline the profile stopped at) found at most memory_s before, within level_tolerance_mm and
   // twice their levels' combined standard uncertainty, stepping at one end by a candidate waterline's
-  // share of the threshold, is that lid: the bottom is not seen (StereoMeasurer). Nor is a waterline at
+  // share of the threshold, is that lid: the bottom is not seen (StereoMeasurer). A lid found on two
+  // frames running is recalled by any profile whose depth lies at its level. Nor is a waterline at
   // such a lid's level read through: what stereo finds below it is the bottom in the debris' gaps. Guard
   // strips judge each frame alone.
   double memory_s = 0.5;
@@ -184,6 +185,9 @@ struct LidMemory {
   bool found = false;
   double level_mm = 0.0;    // depth of the surface below the ground line, mm
   double level_u_mm = 0.0;  // its standard uncertainty, mm
+  // Found at this level by the frame before too, within memory_s: a lid seen twice running, not one
+  // frame's chance finding.
+  bool confirmed = false;
 };
 
 // What a brightness step must reach (find_waterline, find_level_span): min_step, and step_over_ground
