@@ -438,11 +438,6 @@ double span_level_u(const LevelSpan& span, double bin_mm) {
   return span.roughness_mm / std::sqrt(bins);
 }
 
-// A lid found at most memory_s before t_ns (WaterlineConfig::memory_s), at the level of `span` within
-// level_tolerance_mm and twice their combined standard uncertainty, `span` as wide as a lid must be and
-// stepping at one end by what a candidate waterline's steps must reach. Its roughness is not judged: the
-// level is the lid's, and against ground as smooth as rendered sand and grass (0.01-0.02 mm from bin to
-// bin) foam and leaves lit like the soil scatter 5-10 times more.
 // A lid found at most memory_s before t_ns at level_mm (standard uncertainty level_u_mm), within
 // level_tolerance_mm and twice their combined standard uncertainty.
 bool lid_at_level(const LidMemory& last, double level_mm, double level_u_mm, std::int64_t t_ns,
@@ -451,6 +446,11 @@ bool lid_at_level(const LidMemory& last, double level_mm, double level_u_mm, std
   return last.found && within_memory(last.t_ns, t_ns, c) && std::abs(level_mm - last.level_mm) <= tolerance;
 }
 
+// A lid found at most memory_s before t_ns (WaterlineConfig::memory_s), at the level of `span` within
+// level_tolerance_mm and twice their combined standard uncertainty, `span` as wide as a lid must be and
+// stepping at one end by what a candidate waterline's steps must reach. Its roughness is not judged: the
+// level is the lid's, and against ground as smooth as rendered sand and grass (0.01-0.02 mm from bin to
+// bin) foam and leaves lit like the soil scatter 5-10 times more.
 bool recalls_lid(const LidMemory& last, const LevelSpan& span, double span_u, std::int64_t t_ns,
                  const WaterlineConfig& c) {
   if (span.right_x_mm - span.left_x_mm < c.lid_min_width_mm) return false;
@@ -533,9 +533,9 @@ void StereoMeasurer::read_through_water(FrameWork& w, RutWorkspace& workspace, c
   }
 }
 
-// The waterline part of read_through_water: `last` is the waterline memory as the frame before left it,
-// `lid` this frame's level span (no lid by its own evidence). A lid this frame finds (a level span unlike
-// the ground under no waterline, a waterline the profile stops at) goes to workspace.last_lid.
+// The waterline part of read_through_water: `last` and `last_lid` are the waterline's and the lid's memory
+// as the frame before left them, `lid` this frame's level span (no lid by its own evidence). A lid this frame finds (a
+// level span unlike the ground under no waterline, a waterline the profile stops at) goes to workspace.last_lid.
 void StereoMeasurer::read_waterline(FrameWork& w, RutWorkspace& workspace, const WaterlineMemory& last,
                                     const LidMemory& last_lid, const LevelSpan& lid, double lid_u, double y_mm) const {
   RutMeasurement& m = w.measurement;
