@@ -81,8 +81,8 @@ struct WaterlineConfig {
   // twice their levels' combined standard uncertainty, stepping at one end by a candidate waterline's
   // share of the threshold, is that lid: the bottom is not seen (StereoMeasurer). A lid found on two
   // frames running is recalled by any profile whose depth lies at its level. Nor is a waterline at
-  // such a lid's level read through: what stereo finds below it is the bottom in the debris' gaps. Guard
-  // strips judge each frame alone.
+  // the level of a lid found within memory_s read through: what stereo finds below it is the bottom in
+  // the debris' gaps. Guard strips judge each frame alone.
   double memory_s = 0.5;
 
   // A floating lid (foam, leaves, litter on the water) where no pair of steps marks the waterline
