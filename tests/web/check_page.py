@@ -11,6 +11,7 @@ width (data-width, from the browser's decoder). The test compares them with the 
 import html.parser
 import json
 import os
+import signal
 import subprocess
 import sys
 import tempfile
@@ -19,12 +20,44 @@ import time
 CHROMIUM = "/usr/bin/chromium"
 
 
-def chromium(url, extra, profile):
+def chromium_once(url, extra, profile, timeout_s):
+    """One headless Chromium run; None when it had not exited after timeout_s (it and its children killed)."""
     # --no-sandbox: tests run as root here; --virtual-time-budget: the page's timers (its polling) run
     # for that long, network waits not counted, before the DOM is dumped.
     args = [CHROMIUM, "--headless", "--no-sandbox", "--disable-gpu", "--no-first-run", "--hide-scrollbars",
             "--user-data-dir=" + profile, "--window-size=1400,1500", "--virtual-time-budget=3000"] + extra + [url]
-    return subprocess.run(args, capture_output=True, text=True, timeout=90)
+    with subprocess.Popen(args, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                          start_new_session=True) as p:
+        try:
+            out, err = p.communicate(timeout=timeout_s)
+        except subprocess.TimeoutExpired:
+            os.killpg(p.pid, signal.SIGKILL)
+            p.communicate()
+            return None
+    return subprocess.CompletedProcess(args, p.returncode, out, err)
+
+
+def chromium(url, extra, profile, done):
+    """Headless Chromium until done(run) holds, at most twice. Under --virtual-time-budget Chromium now and
+    then never exits, before or after writing its output (a known headless Chromium behaviour, more often on
+    a loaded machine: once in a sanitizer run here); a run that hangs is killed and the page loaded once more,
+    in a fresh profile (the killed one may still be locked). Returns the last run (None: it hung)."""
+    run = None
+    for _ in range(2):
+        run = chromium_once(url, extra, tempfile.mkdtemp(dir=profile), 60)
+        if done(run):
+            break
+    return run
+
+
+def is_png(path):
+    """A whole PNG file: its signature first, its IEND chunk last."""
+    try:
+        with open(path, "rb") as f:
+            data = f.read()
+    except OSError:
+        return False
+    return data.startswith(b"\x89PNG\r\n\x1a\n") and data.endswith(b"IEND\xaeB`\x82")
 
 
 class Dom(html.parser.HTMLParser):
@@ -58,7 +91,9 @@ class Dom(html.parser.HTMLParser):
 
 
 def load(url, profile):
-    run = chromium(url, ["--dump-dom"], profile)
+    run = chromium(url, ["--dump-dom"], profile, lambda r: r is not None and r.returncode == 0 and "<html" in r.stdout)
+    if run is None:
+        sys.exit("chromium did not exit within 60 s, twice")
     if run.returncode != 0 or "<html" not in run.stdout:
         sys.exit("chromium failed (%d): %s" % (run.returncode, run.stderr[-2000:]))
     dom = Dom()
@@ -95,9 +130,12 @@ def main():
         time.sleep(1.0)
         second = load(url, profile)
         if len(sys.argv) > 3:
-            shot = chromium(url, ["--screenshot=" + os.path.abspath(sys.argv[3])], profile)
-            if shot.returncode != 0:
-                sys.exit("chromium screenshot failed: " + shot.stderr[-2000:])
+            path = os.path.abspath(sys.argv[3])
+            # The file decides: Chromium may hang at exit after writing it.
+            shot = chromium(url, ["--screenshot=" + path], profile, lambda r: is_png(path))
+            if not is_png(path):
+                sys.exit("chromium screenshot failed: " + ("no exit within 60 s, twice" if shot is None
+                                                           else shot.stderr[-2000:]))
     # One line, flat, every value a string: "first_seq": "55", "second_conditions_set": "Water,LowLight".
     flat = {}
     for name, load_ in (("first", first), ("second", second)):
