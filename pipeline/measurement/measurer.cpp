@@ -467,11 +467,16 @@ LidMemory lid_found(const LidMemory& before, std::int64_t t_ns, double level_mm,
   return LidMemory{t_ns, true, level_mm, level_u_mm, lid_at_level(before, level_mm, level_u_mm, t_ns, c)};
 }
 
+// A surface at level_mm, meeting the walls at left_x_mm and right_x_mm, hides the bottom.
+void refuse_hidden(RutMeasurement& m, RutGeometry& g, double level_mm, double left_x_mm, double right_x_mm) {
+  m.conditions |= kConditionWater;
+  mark_water(g, level_mm, left_x_mm, right_x_mm);
+  m.status = RutStatus::BottomNotSeen;
+}
+
 // A level span taken for a floating lid: the bottom is not seen.
 void refuse_as_lid(RutMeasurement& m, RutGeometry& g, const LevelSpan& lid) {
-  m.conditions |= kConditionWater;
-  mark_water(g, lid.level_mm, lid.left_x_mm, lid.right_x_mm);
-  m.status = RutStatus::BottomNotSeen;
+  refuse_hidden(m, g, lid.level_mm, lid.left_x_mm, lid.right_x_mm);
 }
 
 }  // namespace
@@ -511,11 +516,7 @@ void StereoMeasurer::read_through_water(FrameWork& w, RutWorkspace& workspace, c
   const WaterlineMemory last = std::exchange(workspace.last_waterline, WaterlineMemory{});
   const LidMemory last_lid = std::exchange(workspace.last_lid, LidMemory{});
   read_waterline(w, workspace, last, last_lid, lid, lid_u, y_mm);
-  if (workspace.last_lid.found) {
-    const LidMemory& now = workspace.last_lid;
-    workspace.last_lid = lid_found(last_lid, now.t_ns, now.level_mm, now.level_u_mm, c);
-    return;
-  }
+  if (workspace.last_lid.found) return;
   workspace.last_lid = last_lid;
   if (m.status != RutStatus::Ok) return;
   // Published at the level of the lid a frame found a moment ago, stepping at an end by a candidate's
@@ -527,9 +528,8 @@ void StereoMeasurer::read_through_water(FrameWork& w, RutWorkspace& workspace, c
     // Where the surface meets the walls is not known here: the level span's ends, or the deepest point.
     RutGeometry& g = workspace.geometry;
     const bool span = lid.right_x_mm > lid.left_x_mm;
-    m.conditions |= kConditionWater;
-    mark_water(g, last_lid.level_mm, span ? lid.left_x_mm : g.deepest_x_mm, span ? lid.right_x_mm : g.deepest_x_mm);
-    m.status = RutStatus::BottomNotSeen;
+    refuse_hidden(m, g, last_lid.level_mm, span ? lid.left_x_mm : g.deepest_x_mm,
+                  span ? lid.right_x_mm : g.deepest_x_mm);
   }
 }
 
@@ -572,7 +572,7 @@ void StereoMeasurer::read_waterline(FrameWork& w, RutWorkspace& workspace, const
     // No waterline above a level span unlike the ground: a lid whose edges the walls do not show.
     if (lid.unlike_ground) {
       refuse_as_lid(m, workspace.geometry, lid);
-      workspace.last_lid = LidMemory{w.frame.t_ns, true, lid.level_mm, lid_u};
+      workspace.last_lid = lid_found(last_lid, w.frame.t_ns, lid.level_mm, lid_u, c);
     } else if (recent(last, w.frame.t_ns, c)) {
       // No steps at all, a moment after the last frame confirmed a waterline: the water may well be
       // there, its steps too faint on these walls. Read both ways at its level, as a candidate is (so
@@ -604,7 +604,7 @@ void StereoMeasurer::read_waterline(FrameWork& w, RutWorkspace& workspace, const
     m.status = RutStatus::BottomNotSeen;
     // The surface hides the bottom at the waterline's level: a lid (or opaque water) the next frames may
     // show lit like the soil.
-    workspace.last_lid = LidMemory{w.frame.t_ns, true, line.level_mm, line.level_u_mm};
+    workspace.last_lid = lid_found(last_lid, w.frame.t_ns, line.level_mm, line.level_u_mm, c);
     return;
   }
   // A waterline at the level of a lid found a moment ago: the same debris, the bottom seen in its gaps.
