@@ -99,6 +99,7 @@ SceneOutcome measure_scene(const MatrixScene& scene, const BenchScenesOptions& o
   mo.engine = o.engine;
   mo.no_dic = !o.dic;
   mo.config.strip.guards = o.guards;
+  mo.config.strip.guards_always = o.guards_always;
   StereoMeasurer measurer(renderer.calibration(), resolve_measure_options(mo));
   const std::uint8_t expected = expected_bits(scene);
   SceneOutcome out;

@@ -38,7 +38,8 @@ struct Options {
   std::string engine = "sgbm3way";
   std::string size = "640x480";
   bool json = false;
-  int guards = 0;  // guard strips of the strip runs (StripConfig::guards)
+  int guards = StripConfig{}.guards;  // guard strips of the strip runs (StripConfig::guards)
+  bool guards_always = false;         // StripConfig::guards_always
 };
 // Counts what the pipeline published and compares each OK depth with the renderer's truth of the pair it
 // came from (the cycling source delivers frames[seq % frames.size()]).
@@ -161,6 +162,7 @@ int run_bench(const Options& o) {
   strip.engine = *parse_engine(o.engine);
   strip.dic = o.dic;
   strip.strip.guards = o.guards;
+  strip.strip.guards_always = o.guards_always;
   MeasurerConfig full = strip;
   full.strip = StripConfig{p.rig.image_size.height, 0};
   run("strip", "throughput", renderer, frames, strip, true, 0, o);
@@ -190,9 +192,11 @@ void add_bench_command(CLI::App& app, int& exit_code) {
       ->capture_default_str();
   cmd->add_option("--size", o->size, "Image size WIDTHxHEIGHT")->capture_default_str();
   cmd->add_option("--guard-strips", o->guards,
-                  "Guard strips measured on the frames the strip finds OK, to look for water (0: none)")
+                  "Guard strips measured on the frames the strip finds OK after water was seen, to look for it (0: "
+                  "none)")
       ->check(CLI::Range(0, 2))
       ->capture_default_str();
+  cmd->add_flag("--guards-always", o->guards_always, "Guard strips on every frame the strip finds OK");
   auto no_dic = std::make_shared<bool>(false);
   cmd->add_flag("--no-dic", *no_dic, "No sub-pixel refinement");
   cmd->add_flag("--json", o->json,
@@ -237,6 +241,7 @@ void add_bench_command(CLI::App& app, int& exit_code) {
       scenes->dic = o->dic;
       scenes->json = o->json;
       scenes->guards = o->guards;
+      scenes->guards_always = o->guards_always;
       exit_code = run_bench_scenes(*scenes);
     } else if (!pair_files->empty()) {
       pair->left = (*pair_files)[0];

@@ -268,7 +268,9 @@ void read_strip(Section s, StripConfig& strip) {
   s.get<int>("rows", strip.rows, in_range(0, 4096))
       .parse("first_row", [&](const std::string& t) { return parse_first_row(t, first_row); })
       .get<int>("guards", strip.guards, in_range(0, 2))
-      .get<double>("guard_spacing", strip.guard_spacing, in_range(0.05, 0.5));
+      .get<double>("guard_spacing", strip.guard_spacing, in_range(0.05, 0.5))
+      .get<bool>("guards_always", strip.guards_always)
+      .get<double>("guard_after_water_s", strip.guard_after_water_s, in_range(0.0, 3600.0));
   if (first_row && strip.rows == 0) s.fail("first_row", "needs rows too");
   strip.first_row = first_row;
   s.finish();

@@ -25,9 +25,12 @@ void add_measure_options(CLI::App& cmd, MeasureOptions& o) {
       ->group("");
   cmd.add_option("--guard-strips", o.config.strip.guards,
                  "Guard strips (0..2) measured a quarter of the image height above and below the strip on the frames "
-                 "it finds OK; a frame is refused where one finds water it did not")
+                 "it finds OK within guard_after_water_s of a frame flagged Water; a frame is refused where one finds "
+                 "water it did not")
       ->check(CLI::Range(0, 2))
       ->capture_default_str();
+  cmd.add_flag("--guards-always", o.config.strip.guards_always,
+               "Guard strips on every frame the strip finds OK, not only after water was seen");
   cmd.add_option("--near-mm", o.config.range.near_mm, "Nearest plausible camera-to-terrain distance, mm")
       ->check(CLI::Range(20.0, 20000.0))
       ->capture_default_str();

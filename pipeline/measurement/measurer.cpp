@@ -80,8 +80,10 @@ StereoMeasurer::StereoMeasurer(const StereoCalibration& calibration, const Measu
   // GPU engine made here too would open the device twice. Bad parameters still throw here.
   check_engine(config_.engine, config_.engine_config);
   if (config_.water.enabled && config_.strip.guards > 0) {
-    if (config_.strip.guards > 2 || !(config_.strip.guard_spacing > 0.0 && config_.strip.guard_spacing <= 0.5))
-      throw std::invalid_argument("strip guards must be 0..2 and guard_spacing within (0, 0.5]");
+    if (config_.strip.guards > 2 || !(config_.strip.guard_spacing > 0.0 && config_.strip.guard_spacing <= 0.5) ||
+        !(config_.strip.guard_after_water_s >= 0.0))
+      throw std::invalid_argument(
+          "strip guards must be 0..2, guard_spacing within (0, 0.5] and guard_after_water_s at least 0");
     const int height = calibration.image_size.height;
     const int offset = static_cast<int>(std::lround(config_.strip.guard_spacing * height));
     auto guards = std::make_unique<Guards>();
@@ -113,9 +115,27 @@ std::vector<StripRoi> StereoMeasurer::guard_strips() const {
   return out;
 }
 
-void StereoMeasurer::check_guards(FrameWork& w) const {
+namespace {
+
+// Remembers the capture time of a frame flagged Water (StripConfig::guard_after_water_s).
+void note_water(const RutMeasurement& m, std::int64_t t_ns, RutWorkspace& workspace) {
+  if ((m.conditions & kConditionWater) == 0) return;
+  workspace.water_seen = true;
+  workspace.water_seen_ns = t_ns;
+}
+
+}  // namespace
+
+bool StereoMeasurer::guards_asked(const RutWorkspace& workspace, std::int64_t t_ns) const {
+  if (config_.strip.guards_always) return true;
+  const double age_s = 1e-9 * static_cast<double>(t_ns - workspace.water_seen_ns);
+  return workspace.water_seen && age_s >= 0.0 && age_s <= config_.strip.guard_after_water_s;
+}
+
+void StereoMeasurer::check_guards(FrameWork& w, RutWorkspace& workspace) const {
   RutMeasurement& m = w.measurement;
-  if (!guards_ || m.status != RutStatus::Ok) return;
+  note_water(m, w.frame.t_ns, workspace);
+  if (!guards_ || m.status != RutStatus::Ok || !guards_asked(workspace, w.frame.t_ns)) return;
   const bool read_through = (m.conditions & kConditionWater) != 0;
   const std::lock_guard lock(guards_->mutex);
   for (StereoMeasurer& guard : guards_->strips) {
@@ -132,6 +152,7 @@ void StereoMeasurer::check_guards(FrameWork& w) const {
       w.diag.guard_water = true;
       m.conditions |= kConditionWater;
       m.status = RutStatus::BottomNotSeen;
+      note_water(m, w.frame.t_ns, workspace);
       return;
     }
   }
@@ -690,7 +711,7 @@ void StereoMeasurer::extract(FrameWork& w, RutWorkspace& workspace) const {
   }
   check_frame(w.left_strip, w.right_strip, w.disparity, first, first + strip_.rows, geometry_, workspace.geometry,
               w.diag.band, w.frame.skew_ns, signal, config_.conditions, w.checks, w.measurement);
-  check_guards(w);
+  check_guards(w, workspace);
   w.geometry = workspace.geometry;
   w.measured = true;
   w.diag.rut_ms = ms_since(t0);

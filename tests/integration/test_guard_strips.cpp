@@ -1,7 +1,9 @@
 // Guard strips (StripConfig::guards): a frame the measured strip finds OK is measured again on two more
 // strips a quarter of the image height above and below it, and refused BOTTOM_NOT_SEEN with Water where
 // one of them finds water the strip did not. Where they lie; that they refuse a floating lid the strip
-// took for the rut's bottom (against the renderer's truth); and that they leave clean ruts alone.
+// took for the rut's bottom (against the renderer's truth); that they leave clean ruts alone; and that by
+// default they are asked only within guard_after_water_s of a frame flagged Water, so that dry ground
+// costs nothing, while a lid the strip misses between frames that saw its water is still refused.
 #include <cmath>
 #include <cstdio>
 #include <stdexcept>
@@ -19,10 +21,11 @@ namespace {
 
 SyntheticRendererConfig scene(const std::string& line) { return parse_scene_line(line); }
 
-// Guards on (off by default).
+// Guards on every OK frame (by default only after water was seen).
 MeasurerConfig guarded() {
   MeasurerConfig c;
   c.strip.guards = 2;
+  c.strip.guards_always = true;
   return c;
 }
 
@@ -122,26 +125,87 @@ TEST(GuardStrips, ALidTheStripTookForTheBottomIsRefusedWithWater) {
   EXPECT_EQ(refused, wrong_alone);
 }
 
-// Clean ruts in sand and grass: both guards measured on every frame, none refuses, every depth within
-// the end-to-end tolerance of the truth.
+// Clean ruts in sand and grass: with guards_always both guards measured on every frame, none refuses,
+// every depth within the end-to-end tolerance of the truth; with the defaults no water is seen, so no
+// guard is measured, and the depth is the same.
 TEST(GuardStrips, CleanRutsAreLeftAlone) {
   int checked = 0;
   for (const char* line : {"--texture sand --depth 40 --seed 7", "--texture grass --depth 55 --roll 2 --seed 8"}) {
     const SyntheticRenderer renderer(scene(line));
     StereoMeasurer m(renderer.calibration(), guarded());
+    StereoMeasurer by_default(renderer.calibration(), MeasurerConfig{});
+    ASSERT_EQ(by_default.guard_strips().size(), 2U);
     for (std::uint64_t i = 0; i < 3; ++i) {
       StereoFrame frame;
       renderer.render(i, frame);
-      const RutMeasurement r = m.measure(frame.left, frame.right);
+      const RutMeasurement r = m.measure(frame.left, frame.right, frame.skew_ns, frame.t_ns);
       ASSERT_EQ(r.status, RutStatus::Ok) << line << " frame " << i;
       EXPECT_EQ(m.diagnostics().guard_strips, 2) << line << " frame " << i;
       EXPECT_FALSE(m.diagnostics().guard_water) << line << " frame " << i;
       EXPECT_EQ(r.conditions & kConditionWater, 0U) << line << " frame " << i;
       EXPECT_NEAR(r.depth_mm, renderer.truth(i).depth_mm, 0.5) << line << " frame " << i;
+      const RutMeasurement d = by_default.measure(frame.left, frame.right, frame.skew_ns, frame.t_ns);
+      ASSERT_EQ(d.status, RutStatus::Ok) << line << " frame " << i;
+      EXPECT_EQ(by_default.diagnostics().guard_strips, 0) << line << " frame " << i;
+      EXPECT_DOUBLE_EQ(d.depth_mm, r.depth_mm) << line << " frame " << i;
       ++checked;
     }
   }
   EXPECT_EQ(checked, 6);
+}
+
+// The scene matrix's lid-litter-mud-05: litter floats on 31 mm of water in a 61 mm mud rut. Frame by frame
+// at the renderer's capture times, the measured strip alone sees the water on most frames (the bottom
+// hidden, refused), but on frame 4 its rows fall on litter lit like the mud and it publishes the lid as
+// the bottom, 28 mm short. With the defaults the guards are asked on that frame, 33 ms after one flagged
+// Water, and refuse it; captured later than guard_after_water_s after the frame before, it is not guarded.
+TEST(GuardStrips, AskedWithinGuardAfterWaterOfAFrameFlaggedWater) {
+  const SyntheticRenderer renderer(
+      scene("--texture mud --depth 60.7 --width 170 --bottom-width 78 --pile-left 5.9 --pile-right 10.3 "
+            "--baseline 41 --height 361 --roll 2.9 --seed 1305 --water-level 29.9 --debris 0.41 --debris-kind litter "
+            "--water-attenuation 0.298"));
+  MeasurerConfig alone_config;
+  alone_config.strip.guards = 0;
+  StereoMeasurer alone(renderer.calibration(), alone_config);
+  StereoMeasurer by_default(renderer.calibration(), MeasurerConfig{});
+  StereoMeasurer late(renderer.calibration(), MeasurerConfig{});
+  const double window_s = MeasurerConfig{}.strip.guard_after_water_s;
+  int wrong_alone = 0, refused = 0, checked = 0;
+  bool water_before = false;
+  for (std::uint64_t i = 0; i < 8; ++i) {
+    StereoFrame frame;
+    renderer.render(i, frame);
+    const double truth = renderer.truth(i).depth_mm;
+    const RutMeasurement a = alone.measure(frame.left, frame.right, frame.skew_ns, frame.t_ns);
+    const RutMeasurement d = by_default.measure(frame.left, frame.right, frame.skew_ns, frame.t_ns);
+    ++checked;
+    // Never a wrong depth published OK by default.
+    if (d.status == RutStatus::Ok) {
+      EXPECT_LE(std::abs(d.depth_mm - truth), 1.0) << "frame " << i;
+    }
+    const bool wrong = a.status == RutStatus::Ok && std::abs(a.depth_mm - truth) > 1.0;
+    if (wrong) {
+      ++wrong_alone;
+      // Only water seen on the frames before can have asked the guards: this frame alone saw none.
+      EXPECT_TRUE(water_before) << "frame " << i;
+      EXPECT_EQ(d.status, RutStatus::BottomNotSeen) << "frame " << i;
+      EXPECT_NE(d.conditions & kConditionWater, 0U) << "frame " << i;
+      EXPECT_TRUE(by_default.diagnostics().guard_water) << "frame " << i;
+      refused += d.status == RutStatus::BottomNotSeen && by_default.diagnostics().guard_water;
+      // The same frame, captured later than the window after the frame before: not guarded.
+      const RutMeasurement l = late.measure(frame.left, frame.right, frame.skew_ns,
+                                            frame.t_ns + static_cast<std::int64_t>((window_s + 0.1) * 1e9));
+      EXPECT_EQ(late.diagnostics().guard_strips, 0) << "frame " << i;
+      EXPECT_EQ(l.status, RutStatus::Ok) << "frame " << i;
+      EXPECT_NEAR(l.depth_mm, a.depth_mm, 1e-9) << "frame " << i;
+    } else {
+      late.measure(frame.left, frame.right, frame.skew_ns, frame.t_ns);
+    }
+    water_before = water_before || (d.conditions & kConditionWater) != 0;
+  }
+  EXPECT_EQ(checked, 8);
+  EXPECT_GE(wrong_alone, 1) << "no frame the strip alone publishes OK off the truth: the scene tests nothing";
+  EXPECT_EQ(refused, wrong_alone);
 }
 
 }  // namespace

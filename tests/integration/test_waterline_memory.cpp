@@ -36,6 +36,13 @@ const char* kClearWaterOnMud =
     "--texture mud --depth 23.7 --width 251 --bottom-width 136 --pile-left 8.9 --pile-right 8.6 --baseline 69 "
     "--height 368 --roll -3.8 --seed 1001 --water-level 8.2 --water-attenuation 0.0036 --water-colour 0.10";
 
+// The measured strip's own judgement: no guard strips (StripConfig::guards, tests/integration/test_guard_strips.cpp).
+MeasurerConfig strip_alone() {
+  MeasurerConfig c;
+  c.strip.guards = 0;
+  return c;
+}
+
 struct Measured {
   RutMeasurement m;
   double truth_mm = 0.0;
@@ -65,7 +72,7 @@ bool refused_uncertain_with_water(const Measured& r) {
 // per frame), by one measurer with the given memory.
 std::vector<Measured> run(const SyntheticRenderer& renderer, const std::vector<std::uint64_t>& indices, double memory_s,
                           const std::vector<std::int64_t>& shift_ns = {}) {
-  MeasurerConfig config;
+  MeasurerConfig config = strip_alone();
   config.water.memory_s = memory_s;
   StereoMeasurer m(renderer.calibration(), config);
   std::vector<Measured> out;
@@ -81,7 +88,7 @@ TEST(WaterlineMemory, ACandidateAtTheLevelTheLastFrameConfirmedIsReadThrough) {
   const StereoCalibration& cal = renderer.calibration();
   // Frame 4 confirms its waterline; frames 5 and 7, alone, only have a candidate at its level.
   for (const std::uint64_t i : {5U, 7U}) {
-    StereoMeasurer alone(cal, MeasurerConfig{});
+    StereoMeasurer alone(cal, strip_alone());
     const Measured r = measure(alone, renderer, i);
     ASSERT_TRUE(refused_uncertain_with_water(r))
         << "frame " << i << " alone: " << to_string(r.m.status) << " " << r.m.depth_mm << " mm, truth " << r.truth_mm
@@ -89,7 +96,7 @@ TEST(WaterlineMemory, ACandidateAtTheLevelTheLastFrameConfirmedIsReadThrough) {
     EXPECT_GT(std::abs(r.m.depth_mm - r.truth_mm), 1.0) << "frame " << i << ": the dry reading";
   }
   {
-    StereoMeasurer m(cal, MeasurerConfig{});
+    StereoMeasurer m(cal, strip_alone());
     const Measured confirmed = measure(m, renderer, 4);
     ASSERT_TRUE(read_through(confirmed)) << to_string(confirmed.m.status) << " " << confirmed.m.depth_mm << " mm";
     const Measured next = measure(m, renderer, 5);
@@ -102,13 +109,13 @@ TEST(WaterlineMemory, ACandidateAtTheLevelTheLastFrameConfirmedIsReadThrough) {
         << to_string(after_recall.m.status) << " " << after_recall.m.depth_mm << " mm";
   }
   {  // 0.6 s between the two captures: longer than memory_s (0.5 s).
-    StereoMeasurer m(cal, MeasurerConfig{});
+    StereoMeasurer m(cal, strip_alone());
     ASSERT_TRUE(read_through(measure(m, renderer, 4)));
     const Measured late = measure(m, renderer, 5, 600'000'000);
     EXPECT_TRUE(refused_uncertain_with_water(late)) << to_string(late.m.status) << " " << late.m.depth_mm << " mm";
   }
   {  // The memory off.
-    MeasurerConfig off;
+    MeasurerConfig off = strip_alone();
     off.water.memory_s = 0.0;
     StereoMeasurer m(cal, off);
     ASSERT_TRUE(read_through(measure(m, renderer, 4)));
@@ -234,7 +241,7 @@ TEST(LidMemory, ACleanRutAfterAFalseFindingStaysMeasured) {
       "--texture mud --depth 60.8 --width 299 --bottom-width 179 --pile-left 7.1 --pile-right 17.7 --offset 6 "
       "--baseline 84 --height 463 --hfov 75 --roll 2.9 --pitch -1.2 --noise 1.19 --speed 2122 "
       "--right-response 1.024 --seed 2021 --exposure 1.007 --gain 2.46"));
-  StereoMeasurer m(renderer.calibration(), MeasurerConfig{});
+  StereoMeasurer m(renderer.calibration(), strip_alone());
   std::vector<Measured> r;
   for (std::uint64_t i = 0; i < 8; ++i) r.push_back(measure(m, renderer, i));
   ASSERT_TRUE(bottom_hidden(r[2])) << to_string(r[2].m.status) << ": frame 2 no longer raises the case";

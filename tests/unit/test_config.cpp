@@ -67,9 +67,10 @@ std::string dump(const RutdConfig& c) {
   o << "\ncalibration=" << c.calibration << "\nengine=" << static_cast<int>(m.engine)
     << "\ngpu_device=" << m.engine_config.gpu_device << "\nsgm_paths=" << m.engine_config.sgm_paths
     << "\nsgm_segment=" << m.engine_config.sgm_segment << "\ndic=" << m.dic << "\nstrip=" << m.strip.rows << ","
-    << m.strip.first_row.value_or(-1) << "," << m.strip.guards << "," << m.strip.guard_spacing
-    << "\nrange=" << m.range.near_mm << "," << m.range.far_mm << "\nrut=" << m.rut.min_rut_width_mm << ","
-    << m.rut.max_rut_width_mm << "," << m.rut.fit_window_mm << "," << m.rut.bin_mm << "," << m.rut.min_rut_depth_mm;
+    << m.strip.first_row.value_or(-1) << "," << m.strip.guards << "," << m.strip.guard_spacing << ","
+    << m.strip.guards_always << "," << m.strip.guard_after_water_s << "\nrange=" << m.range.near_mm << ","
+    << m.range.far_mm << "\nrut=" << m.rut.min_rut_width_mm << "," << m.rut.max_rut_width_mm << ","
+    << m.rut.fit_window_mm << "," << m.rut.bin_mm << "," << m.rut.min_rut_depth_mm;
   o << "\ncan=" << c.can.extended << "," << int(c.can.source_address) << "," << int(c.can.priority);
   o << "\nsinks=" << c.sinks.socketcan << "," << c.sinks.candump << "," << c.sinks.can_interface_name << ","
     << c.sinks.csv;
@@ -233,16 +234,27 @@ TEST(Config, StripIsCentredUnlessItsFirstRowIsGiven) {
 
 TEST(Config, GuardStripsAndTheirSpacing) {
   const MeasurerConfig defaults = parse_config("measurement:\n  strip:\n    rows: 40\n", "test.yaml").measurement;
-  EXPECT_EQ(defaults.strip.guards, 0);
+  EXPECT_EQ(defaults.strip.guards, 2);
   EXPECT_DOUBLE_EQ(defaults.strip.guard_spacing, 0.25);
-  const MeasurerConfig set =
-      parse_config("measurement:\n  strip:\n    guards: 1\n    guard_spacing: 0.3\n", "test.yaml").measurement;
+  EXPECT_FALSE(defaults.strip.guards_always);
+  EXPECT_DOUBLE_EQ(defaults.strip.guard_after_water_s, 0.5);
+  const MeasurerConfig set = parse_config(
+                                 "measurement:\n  strip:\n    guards: 1\n    guard_spacing: 0.3\n"
+                                 "    guards_always: true\n    guard_after_water_s: 2.5\n",
+                                 "test.yaml")
+                                 .measurement;
   EXPECT_EQ(set.strip.guards, 1);
   EXPECT_DOUBLE_EQ(set.strip.guard_spacing, 0.3);
-  EXPECT_EQ(parse_config("measurement:\n  strip:\n    guards: 2\n", "test.yaml").measurement.strip.guards, 2);
+  EXPECT_TRUE(set.strip.guards_always);
+  EXPECT_DOUBLE_EQ(set.strip.guard_after_water_s, 2.5);
+  EXPECT_EQ(parse_config("measurement:\n  strip:\n    guards: 0\n", "test.yaml").measurement.strip.guards, 0);
   expect_error("measurement:\n  strip:\n    guards: 3\n", {"test.yaml", "line 3", "measurement.strip.guards"});
   expect_error("measurement:\n  strip:\n    guard_spacing: 0.6\n",
                {"test.yaml", "line 3", "measurement.strip.guard_spacing"});
+  expect_error("measurement:\n  strip:\n    guard_after_water_s: -1\n",
+               {"test.yaml", "line 3", "measurement.strip.guard_after_water_s"});
+  expect_error("measurement:\n  strip:\n    guards_always: often\n",
+               {"test.yaml", "line 3", "measurement.strip.guards_always"});
 }
 
 // A file written for an older release: each moved key is refused with one error naming the file, the

@@ -6,6 +6,8 @@
 // Figures are reported, never judged here: the tests assert them.
 #include <string>
 
+#include "measurement/measurer.hpp"
+
 namespace rutd {
 
 struct BenchScenesOptions {
@@ -14,7 +16,8 @@ struct BenchScenesOptions {
   std::string engine = "sgbm3way";
   bool dic = true;
   bool json = false;
-  int guards = 0;  // StripConfig::guards
+  int guards = StripConfig{}.guards;  // StripConfig::guards
+  bool guards_always = false;         // StripConfig::guards_always
 };
 // Throws CLI::ValidationError for a bad --only pattern or one that selects nothing.
 int run_bench_scenes(const BenchScenesOptions& o);

@@ -6,6 +6,7 @@
 // the camera), so the results do not depend on image resolution. Nothing here throws or allocates on
 // the per-frame path once the caller-owned CrossSection and RutWorkspace have grown to the largest
 // section seen. Not thread-safe per object: use one CrossSection/RutWorkspace per thread.
+#include <cstdint>
 #include <vector>
 
 #include <opencv2/core.hpp>
@@ -78,6 +79,9 @@ struct RutWorkspace {
   // extract stage; measure()): the last waterline a frame confirmed, and the last lid it found.
   WaterlineMemory last_waterline;
   LidMemory last_lid;
+  // ... and the capture time of the last frame flagged Water (StripConfig::guard_after_water_s).
+  bool water_seen = false;
+  std::int64_t water_seen_ns = 0;
 };
 
 // xyz: CV_32FC3 strip of 3D points (X, Y, Z in mm), a point is invalid if any coordinate is NaN/inf

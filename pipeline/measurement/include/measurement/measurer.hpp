@@ -40,10 +40,15 @@ struct StripConfig {
   // strip did not (read through it, or the bottom hidden by it: a lid the strip took for the bottom),
   // or, where the strip read the bottom through clear water, where a guard finds the bottom hidden (a
   // lid over clear water glimpsed through its gaps). Off with water checks off. Only OK frames pay for
-  // them: up to twice a strip's work more, in extract() (a GPU engine's guards match on the CPU). Off by
-  // default until their cost is measured under the sanitizers' runs; 2 where water is expected.
-  int guards = 0;
+  // them: up to twice a strip's work more, in extract() (a GPU engine's guards match on the CPU).
+  int guards = 2;
   double guard_spacing = 0.25;
+  // When the guards are asked: on every OK frame (guards_always), or only on an OK frame captured at most
+  // guard_after_water_s after a frame flagged Water, this one included (the strip's own finding, a
+  // guard's refusal). Water is seen along a rut before the frames where the strip alone misses it (a
+  // lid's debris lit like the soil); dry ground, most of a drive, then costs nothing.
+  bool guards_always = false;
+  double guard_after_water_s = 0.5;
 };
 
 struct MeasurerConfig {
@@ -197,8 +202,10 @@ class StereoMeasurer {
   void read_waterline(FrameWork& w, RutWorkspace& workspace, const WaterlineMemory& last, const LidMemory& last_lid,
                       const LevelSpan& lid, double lid_u, double y_mm) const;
   void weigh_candidate_waterline(FrameWork& w, RutWorkspace& workspace, const Waterline& line, double y_mm) const;
-  // An OK frame measured again on the guard strips (StripConfig::guards), and refused where one finds water.
-  void check_guards(FrameWork& w) const;
+  // An OK frame measured again on the guard strips (StripConfig::guards) where guards_asked() says so, and
+  // refused where one finds water; the frames flagged Water are remembered in `workspace`.
+  void check_guards(FrameWork& w, RutWorkspace& workspace) const;
+  bool guards_asked(const RutWorkspace& workspace, std::int64_t t_ns) const;
   // The engine is to rectify this frame on its device (MeasurerConfig::rectify_on_device).
   bool device_rectifies(const StereoFrame& frame) const;
 
