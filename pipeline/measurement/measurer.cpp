@@ -117,6 +117,12 @@ std::vector<StripRoi> StereoMeasurer::guard_strips() const {
 
 namespace {
 
+// Captured at then_ns, at most window_s before t_ns (and not after it).
+bool within_s(std::int64_t then_ns, std::int64_t t_ns, double window_s) {
+  const double age_s = 1e-9 * static_cast<double>(t_ns - then_ns);
+  return age_s >= 0.0 && age_s <= window_s;
+}
+
 // Remembers the capture time of a frame flagged Water (StripConfig::guard_after_water_s).
 void note_water(const RutMeasurement& m, std::int64_t t_ns, RutWorkspace& workspace) {
   if ((m.conditions & kConditionWater) == 0) return;
@@ -127,9 +133,8 @@ void note_water(const RutMeasurement& m, std::int64_t t_ns, RutWorkspace& worksp
 }  // namespace
 
 bool StereoMeasurer::guards_asked(const RutWorkspace& workspace, std::int64_t t_ns) const {
-  if (config_.strip.guards_always) return true;
-  const double age_s = 1e-9 * static_cast<double>(t_ns - workspace.water_seen_ns);
-  return workspace.water_seen && age_s >= 0.0 && age_s <= config_.strip.guard_after_water_s;
+  return config_.strip.guards_always ||
+         (workspace.water_seen && within_s(workspace.water_seen_ns, t_ns, config_.strip.guard_after_water_s));
 }
 
 void StereoMeasurer::check_guards(FrameWork& w, RutWorkspace& workspace) const {
@@ -436,8 +441,7 @@ double bin_appearance(const cv::Mat& xyz, const cv::Mat& left, int first, const 
 
 // Captured at then_ns, at most memory_s before t_ns (WaterlineConfig::memory_s; 0: never).
 bool within_memory(std::int64_t then_ns, std::int64_t t_ns, const WaterlineConfig& c) {
-  const double age_s = 1e-9 * static_cast<double>(t_ns - then_ns);
-  return c.memory_s > 0.0 && age_s >= 0.0 && age_s <= c.memory_s;
+  return c.memory_s > 0.0 && within_s(then_ns, t_ns, c.memory_s);
 }
 
 // The last frame confirmed a waterline at most memory_s before t_ns.
