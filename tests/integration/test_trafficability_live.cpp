@@ -30,6 +30,41 @@ using test::read_text;
 using test::run_shell;
 constexpr const char* kPython = "/usr/bin/python3";
 
+// The live run's pipeline counts from its "stopped:" line: dropped, stale; false when the line is missing.
+bool pipeline_losses(const std::string& log, long& dropped, long& stale) {
+  std::smatch m;
+  if (!std::regex_search(log, m, std::regex(R"(stopped: acquired \d+ .* dropped (\d+) stale (\d+) rejected)")))
+    return false;
+  dropped = std::stol(m[1]);
+  stale = std::stol(m[2]);
+  return true;
+}
+
+// A live rutd run, repeated until its pipeline loses no pair, at most kLiveAttempts times. These tests
+// compare what was measured live with what should have been, so a pair the freshest-frame-wins pipeline
+// dropped because the machine descheduled a stage thread for a frame period (seen once in 122 pairs, with
+// the whole suite and an emulated guest on two CPUs) leaves nothing to compare; a daemon that loses pairs
+// for its own reasons loses them on every attempt and fails.
+constexpr int kLiveAttempts = 3;
+struct LiveRun {
+  int status = -1;  // the last attempt's exit status
+  int attempts = 0;
+  std::string log;  // the last attempt's log
+};
+LiveRun run_until_lossless(const std::string& command, const fs::path& log) {
+  LiveRun r;
+  while (r.attempts < kLiveAttempts) {
+    ++r.attempts;
+    r.status = run_shell(command);
+    r.log = read_text(log);
+    long dropped = 0, stale = 0;
+    if (r.status != 0 || !pipeline_losses(r.log, dropped, stale) || (dropped == 0 && stale == 0)) break;
+    std::printf("[ live run ] attempt %d lost %ld dropped and %ld stale pairs to the machine's load\n", r.attempts,
+                dropped, stale);
+  }
+  return r;
+}
+
 std::vector<std::string> lines(const std::string& text) {
   std::vector<std::string> out;
   std::istringstream in(text);
@@ -51,8 +86,10 @@ TEST(TrafficabilityLive, RunMeasuresOnDistanceAndReplayGivesTheSameSegments) {
                           quoted(tmp.path() / "vehicle_in.log") + " run --frames 120 --size 320x240 --candump " +
                           quoted(tmp.path() / "can.log") + " --speed-socketcan vcan0 --record " + quoted(rec) +
                           " --segments " + quoted(tmp.path() / "live.csv") + " 2>" + quoted(log);
-  ASSERT_EQ(run_shell(run), 0) << read_text(log);
-  const std::string run_log = read_text(log);
+  // Each attempt records into a new folder: --record refuses an existing one.
+  const LiveRun live_run = run_until_lossless("rm -rf " + quoted(rec) + " && " + run, log);
+  ASSERT_EQ(live_run.status, 0) << live_run.log;
+  const std::string& run_log = live_run.log;
   EXPECT_NE(run_log.find("recording " + rec.string() + ": "), std::string::npos);
   ASSERT_NE(run_log.find(", 0 dropped (writer behind)"), std::string::npos)
       << "the recording dropped pairs: replay cannot match\n"
@@ -131,8 +168,9 @@ TEST(TrafficabilityLive, TwoThousandForeignFramesASecondCostNoMeasurement) {
   const fs::path log = tmp.path() / "run.log";
   const std::string run = "exec " + quoted(RUTD_FAULTS_BINARY) + " --speed-from " + quoted(tmp.path() / "bus.log") +
                           " run --frames 120 --size 320x240 --candump '' --speed-socketcan vcan0 2>" + quoted(log);
-  ASSERT_EQ(run_shell(run), 0) << read_text(log);
-  const std::string text = read_text(log);
+  const LiveRun live_run = run_until_lossless(run, log);
+  ASSERT_EQ(live_run.status, 0) << live_run.log;
+  const std::string& text = live_run.log;
   std::smatch m;
   // --frames 120 stops the source after 120 pairs; the pair acquired as it stops may be left unpublished.
   const std::regex published(
