@@ -40,12 +40,14 @@ bool pipeline_losses(const std::string& log, long& dropped, long& stale) {
   return true;
 }
 
-// A live rutd run, repeated until its pipeline loses no pair, at most kLiveAttempts times. These tests
-// compare what was measured live with what should have been, so a pair the freshest-frame-wins pipeline
-// dropped because the machine descheduled a stage thread for a frame period (seen once in 122 pairs, with
-// the whole suite and an emulated guest on two CPUs) leaves nothing to compare; a daemon that loses pairs
-// for its own reasons loses them on every attempt and fails.
+// A live rutd run, repeated while its pipeline loses a pair or two, at most kLiveAttempts times. These
+// tests compare what was measured live with what should have been, so a pair the freshest-frame-wins
+// pipeline dropped because the machine descheduled a stage thread for a frame period (seen once in 122
+// pairs, with the whole suite and an emulated guest on two CPUs) leaves nothing to compare. A daemon that
+// loses pairs for its own reasons loses them on every attempt, or more of them at once (then it is not
+// repeated: nor is it under ThreadSanitizer, whose slowdown drops most pairs), and fails.
 constexpr int kLiveAttempts = 3;
+constexpr long kLoadLoss = 2;  // pairs dropped or stale that a descheduled thread explains
 struct LiveRun {
   int status = -1;  // the last attempt's exit status
   int attempts = 0;
@@ -58,7 +60,9 @@ LiveRun run_until_lossless(const std::string& command, const fs::path& log) {
     r.status = run_shell(command);
     r.log = read_text(log);
     long dropped = 0, stale = 0;
-    if (r.status != 0 || !pipeline_losses(r.log, dropped, stale) || (dropped == 0 && stale == 0)) break;
+    if (r.status != 0 || !pipeline_losses(r.log, dropped, stale)) break;
+    const long lost = dropped + stale;
+    if (lost == 0 || lost > kLoadLoss) break;
     std::printf("[ live run ] attempt %d lost %ld dropped and %ld stale pairs to the machine's load\n", r.attempts,
                 dropped, stale);
   }
