@@ -50,20 +50,18 @@ constexpr int kLiveAttempts = 3;
 constexpr long kLoadLoss = 2;  // pairs dropped or stale that a descheduled thread explains
 struct LiveRun {
   int status = -1;  // the last attempt's exit status
-  int attempts = 0;
   std::string log;  // the last attempt's log
 };
 LiveRun run_until_lossless(const std::string& command, const fs::path& log) {
   LiveRun r;
-  while (r.attempts < kLiveAttempts) {
-    ++r.attempts;
+  for (int attempt = 1; attempt <= kLiveAttempts; ++attempt) {
     r.status = run_shell(command);
     r.log = read_text(log);
     long dropped = 0, stale = 0;
     if (r.status != 0 || !pipeline_losses(r.log, dropped, stale)) break;
     const long lost = dropped + stale;
     if (lost == 0 || lost > kLoadLoss) break;
-    std::printf("[ live run ] attempt %d lost %ld dropped and %ld stale pairs to the machine's load\n", r.attempts,
+    std::printf("[ live run ] attempt %d lost %ld dropped and %ld stale pairs to the machine's load\n", attempt,
                 dropped, stale);
   }
   return r;
