@@ -52,7 +52,7 @@ class GpsRunTest : public ::testing::Test {
 
   path write_config(int port) {
     const path config = dir_ / "rutd.yaml";
-    std::ofstream(config) << "source:\n  synthetic:\n    size: 320x240\n    fps: 15\n"
+    std::ofstream(config) << "source:\n  synthetic:\n    size: 320x240\n    fps: 15\n    cycle_frames: 8\n"
                           << "sinks:\n  candump: \"\"\n  csv_positions: true\n"
                           << "gps:\n  enabled: true\n  port: \"" << port << "\"\n  reconnect_min_ms: 50\n"
                           << "logging:\n  stats_period_s: 0.2\n";
