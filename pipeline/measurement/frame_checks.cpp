@@ -324,6 +324,20 @@ void validate(const ConditionConfig& c) {
   require(c.unsynchronised_skew_ms >= 0, "unsynchronised_skew_ms", "must be >= 0");
 }
 
+namespace {
+
+// The least texture (RMS horizontal neighbour difference, grey levels of the 8-bit strip) of a block the
+// vegetation check counts as textured in a camera whose raw image has the signal `g`: twice what its
+// noise alone gives, in an image whose texture does not exceed its noise (texture_to_noise < 1). Where
+// the texture dominates, the noise figure (a Laplacian's median) takes fine texture for noise: on grass
+// blades it came out high enough to hide the blades themselves. Unknown figures leave min_texture.
+double textured_from(const ImageSignal& g, const ConditionConfig& c) {
+  if (!(g.texture_to_noise < 1.0) || !std::isfinite(g.noise)) return c.min_texture;
+  return std::max(c.min_texture, 2.0 * std::sqrt(2.0) * g.noise * kFullScale);
+}
+
+}  // namespace
+
 void check_frame(const cv::Mat& left, const cv::Mat& right, const cv::Mat& disparity, int row_begin, int row_end,
                  const StereoGeometry& geometry, const RutGeometry& rut, DisparityBand band, std::int64_t skew_ns,
                  const PairSignal& signal, const ConditionConfig& c, FrameCheckScratch& s, RutMeasurement& m) noexcept {
@@ -455,12 +469,17 @@ void check_frame(const cv::Mat& left, const cv::Mat& right, const cv::Mat& dispa
     // Vegetation: textured in both cameras, yet unmatched; judged outside the rut opening, where the
     // tyre has not flattened it (inside, DIC also loses steep rut walls, foreshortened differently in
     // the two views, which would pass for blades on a ground with few textured blocks, as snow).
+    // Textured: at least min_texture, and in an image poor in texture for its noise at least twice the
+    // gradient the camera's own read noise gives there (sqrt(2) x its deviation, ImageSignal): under
+    // gain, snow's noise alone passes min_texture, and blocks of noise that DIC leaves unconverged are no
+    // blades.
+    const double textured_left = textured_from(signal.left, c), textured_right = textured_from(signal.right, c);
     int textured = 0, unmatched = 0;
     for (int b = 0; b < blocks; ++b) {
       const int rb = b - shift;
       if (rb < 0 || rb >= blocks || ((b + 1) * c.block_px > u0 && b * c.block_px < u1)) continue;
-      if (s.texture[0][static_cast<std::size_t>(b)] < c.min_texture ||
-          s.texture[1][static_cast<std::size_t>(rb)] < c.min_texture)
+      if (s.texture[0][static_cast<std::size_t>(b)] < textured_left ||
+          s.texture[1][static_cast<std::size_t>(rb)] < textured_right)
         continue;
       ++textured;
       unmatched += 2 * s.matched[static_cast<std::size_t>(b)] < s.sampled[static_cast<std::size_t>(b)];

@@ -400,5 +400,34 @@ TEST(FrameChecks, TexturedUnmatchedOutsideTheRutIsVegetation) {
   EXPECT_EQ(check(Strips(120, 25)).conditions & kConditionVegetation, 0);
 }
 
+// Every third block unmatched, as above, in strips whose texture is `deviation` grey levels; the cameras'
+// read noise (ImageSignal::noise) `noise_dn` grey levels and their texture to noise `ratio`, NaN for
+// unknown.
+RutMeasurement unmatched_blocks(double deviation, double noise_dn, double ratio = 0.6) {
+  Strips s(120, deviation);
+  for (int b = 4; b < 30; b += 3)
+    s.disparity.colRange(b * 16, b * 16 + 16).setTo(std::numeric_limits<float>::quiet_NaN());
+  PairSignal signal;
+  signal.left.noise = signal.right.noise = noise_dn / 255.0;
+  signal.left.texture_to_noise = signal.right.texture_to_noise = ratio;
+  return check(s, {}, 0, {}, signal);
+}
+
+// Snow under gain (the images' texture under their noise): a texture of a few grey levels (an RMS
+// neighbour difference of about 4, above min_texture) that the cameras' read noise alone would give is
+// no blades where DIC leaves it unmatched. Real texture unmatched is vegetation at the same noise, and
+// that texture is too with little noise or with the noise unknown, and where the images' texture
+// exceeds their noise (whose figure, a Laplacian's median, then takes fine blades for noise).
+TEST(FrameChecks, UnmatchedTextureTheNoiseExplainsIsNoVegetation) {
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_EQ(unmatched_blocks(6, 2.0).conditions & kConditionVegetation, 0);
+  EXPECT_EQ(unmatched_blocks(6, 1.6).conditions & kConditionVegetation, 0);
+  EXPECT_TRUE(unmatched_blocks(25, 2.0).conditions & kConditionVegetation);
+  EXPECT_TRUE(unmatched_blocks(6, 0.5).conditions & kConditionVegetation);
+  EXPECT_TRUE(unmatched_blocks(6, nan).conditions & kConditionVegetation);
+  EXPECT_TRUE(unmatched_blocks(6, 2.0, 1.2).conditions & kConditionVegetation);
+  EXPECT_TRUE(unmatched_blocks(6, 2.0, nan).conditions & kConditionVegetation);
+}
+
 }  // namespace
 }  // namespace rutd

@@ -99,7 +99,10 @@ struct ConditionConfig {
   // Vegetation: blades standing above the soil are seen by both cameras (texture in both) but do not
   // match as one surface (each camera sees other blades in front of other soil), so DIC refuses them.
   // Soil, snow and mud match wherever both cameras see texture. Flagged when more than
-  // vegetation_unmatched_share of the blocks with texture in both cameras have under half of their
+  // vegetation_unmatched_share of the blocks with texture in both cameras (at least min_texture and, in
+  // an image whose texture is under its noise, twice the neighbour difference the camera's own read noise
+  // gives, PairSignal: under gain, snow's noise alone passes min_texture, and DIC leaves such blocks
+  // unconverged) have under half of their
   // pixels matched, and at least vegetation_min_blocks do: one or two unmatched blocks are a pile's
   // steep flank or a window that did not converge, and on a ground with few textured blocks (snow) they
   // alone would make the share. Only blocks outside the rut opening count (the tyre flattened the rut).
@@ -158,8 +161,8 @@ struct FrameCheckScratch {
 // band: the disparity band the frame was matched in (where to look for the right strip's features
 // when no disparity was found).
 // skew_ns: the pair's StereoFrame::skew_ns (0: synchronised or unknown).
-// signal: the raw images' texture and noise (ConditionConfig::low_light_texture_to_noise; unknown skips
-// that rule).
+// signal: the raw images' texture and noise (ConditionConfig::low_light_texture_to_noise, and the
+// vegetation check's least texture; unknown skips the first and leaves min_texture to the second).
 void check_frame(const cv::Mat& left_strip, const cv::Mat& right_strip, const cv::Mat& disparity, int row_begin,
                  int row_end, const StereoGeometry& geometry, const RutGeometry& rut, DisparityBand band,
                  std::int64_t skew_ns, const PairSignal& signal, const ConditionConfig& config,
