@@ -231,6 +231,16 @@ bool depth_found(RutStatus status) {
   return status == RutStatus::Ok || status == RutStatus::Uncertain || status == RutStatus::Vegetation;
 }
 
+// The least texture (RMS horizontal neighbour difference, grey levels of the 8-bit strip) of a block the
+// vegetation check counts as textured in a camera whose raw image has the signal `g`: twice what its
+// noise alone gives, in an image whose texture does not exceed its noise (texture_to_noise < 1). Where
+// the texture dominates, the noise figure (a Laplacian's median) takes fine texture for noise: on grass
+// blades it came out high enough to hide the blades themselves. Unknown figures leave min_texture.
+double textured_from(const ImageSignal& g, const ConditionConfig& c) {
+  if (!(g.texture_to_noise < 1.0) || !std::isfinite(g.noise)) return c.min_texture;
+  return std::max(c.min_texture, 2.0 * std::sqrt(2.0) * g.noise * kFullScale);
+}
+
 }  // namespace
 
 ImageSignal image_signal(const cv::Mat& raw, int row_begin, int row_end, int max_rows,
@@ -323,20 +333,6 @@ void validate(const ConditionConfig& c) {
   require(c.vegetation_min_blocks >= 1, "vegetation_min_blocks", "must be >= 1");
   require(c.unsynchronised_skew_ms >= 0, "unsynchronised_skew_ms", "must be >= 0");
 }
-
-namespace {
-
-// The least texture (RMS horizontal neighbour difference, grey levels of the 8-bit strip) of a block the
-// vegetation check counts as textured in a camera whose raw image has the signal `g`: twice what its
-// noise alone gives, in an image whose texture does not exceed its noise (texture_to_noise < 1). Where
-// the texture dominates, the noise figure (a Laplacian's median) takes fine texture for noise: on grass
-// blades it came out high enough to hide the blades themselves. Unknown figures leave min_texture.
-double textured_from(const ImageSignal& g, const ConditionConfig& c) {
-  if (!(g.texture_to_noise < 1.0) || !std::isfinite(g.noise)) return c.min_texture;
-  return std::max(c.min_texture, 2.0 * std::sqrt(2.0) * g.noise * kFullScale);
-}
-
-}  // namespace
 
 void check_frame(const cv::Mat& left, const cv::Mat& right, const cv::Mat& disparity, int row_begin, int row_end,
                  const StereoGeometry& geometry, const RutGeometry& rut, DisparityBand band, std::int64_t skew_ns,
@@ -469,10 +465,8 @@ void check_frame(const cv::Mat& left, const cv::Mat& right, const cv::Mat& dispa
     // Vegetation: textured in both cameras, yet unmatched; judged outside the rut opening, where the
     // tyre has not flattened it (inside, DIC also loses steep rut walls, foreshortened differently in
     // the two views, which would pass for blades on a ground with few textured blocks, as snow).
-    // Textured: at least min_texture, and in an image poor in texture for its noise at least twice the
-    // gradient the camera's own read noise gives there (sqrt(2) x its deviation, ImageSignal): under
-    // gain, snow's noise alone passes min_texture, and blocks of noise that DIC leaves unconverged are no
-    // blades.
+    // Textured: textured_from's least texture in each camera (under gain, snow's noise alone passes
+    // min_texture, and blocks of noise that DIC leaves unconverged are no blades).
     const double textured_left = textured_from(signal.left, c), textured_right = textured_from(signal.right, c);
     int textured = 0, unmatched = 0;
     for (int b = 0; b < blocks; ++b) {

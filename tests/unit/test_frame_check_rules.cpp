@@ -391,18 +391,8 @@ TEST(FrameChecks, FlatUnmatchedPatchInTheRutHidesTheBottomWhereTheWallsDescend) 
   EXPECT_FALSE(check(s, {}, 0, rut).conditions & kConditionWater);
 }
 
-TEST(FrameChecks, TexturedUnmatchedOutsideTheRutIsVegetation) {
-  Strips s(120, 25);
-  for (int b = 4; b < 30; b += 3)
-    s.disparity.colRange(b * 16, b * 16 + 16).setTo(std::numeric_limits<float>::quiet_NaN());
-  const RutMeasurement m = check(s);
-  EXPECT_TRUE(m.conditions & kConditionVegetation);
-  EXPECT_EQ(check(Strips(120, 25)).conditions & kConditionVegetation, 0);
-}
-
-// Every third block unmatched, as above, in strips whose texture is `deviation` grey levels; the cameras'
-// read noise (ImageSignal::noise) `noise_dn` grey levels and their texture to noise `ratio`, NaN for
-// unknown.
+// Every third block unmatched in strips whose texture is `deviation` grey levels; the cameras' read noise
+// (ImageSignal::noise) `noise_dn` grey levels and their texture to noise `ratio`, NaN for unknown.
 RutMeasurement unmatched_blocks(double deviation, double noise_dn, double ratio = 0.6) {
   Strips s(120, deviation);
   for (int b = 4; b < 30; b += 3)
@@ -413,7 +403,13 @@ RutMeasurement unmatched_blocks(double deviation, double noise_dn, double ratio 
   return check(s, {}, 0, {}, signal);
 }
 
-// Snow under gain (the images' texture under their noise): a texture of a few grey levels (an RMS
+TEST(FrameChecks, TexturedUnmatchedOutsideTheRutIsVegetation) {
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_TRUE(unmatched_blocks(25, nan, nan).conditions & kConditionVegetation);
+  EXPECT_EQ(check(Strips(120, 25)).conditions & kConditionVegetation, 0);
+}
+
+// Snow under gain (the images' texture under their noise): as above, a texture of a few grey levels (an RMS
 // neighbour difference of about 4, above min_texture) that the cameras' read noise alone would give is
 // no blades where DIC leaves it unmatched. Real texture unmatched is vegetation at the same noise, and
 // that texture is too with little noise or with the noise unknown, and where the images' texture

@@ -102,10 +102,10 @@ struct ConditionConfig {
   // vegetation_unmatched_share of the blocks with texture in both cameras (at least min_texture and, in
   // an image whose texture is under its noise, twice the neighbour difference the camera's own read noise
   // gives, PairSignal: under gain, snow's noise alone passes min_texture, and DIC leaves such blocks
-  // unconverged) have under half of their
-  // pixels matched, and at least vegetation_min_blocks do: one or two unmatched blocks are a pile's
-  // steep flank or a window that did not converge, and on a ground with few textured blocks (snow) they
-  // alone would make the share. Only blocks outside the rut opening count (the tyre flattened the rut).
+  // unconverged) have under half of their pixels matched, and at least vegetation_min_blocks do: one or
+  // two unmatched blocks are a pile's steep flank or a window that did not converge, and on a ground
+  // with few textured blocks (snow) they alone would make the share. Only blocks outside the rut opening
+  // count (the tyre flattened the rut).
   // (A cross-section rough at scales soil is not also flags it: RutConfig.)
   double vegetation_unmatched_share = 0.2;
   int vegetation_min_blocks = 3;
