@@ -9,6 +9,7 @@
 
 #include <cerrno>
 #include <cstring>
+#include <optional>
 #include <system_error>
 #include <vector>
 
@@ -123,24 +124,26 @@ void VehicleSpeedReceiver::read_pending() noexcept {
       }
       break;
     }
-    std::lock_guard lock(stats_mutex_);
+    std::optional<std::uint32_t> dropped;  // the kernel's running count of this socket's drops, when sent
     for (cmsghdr* c = CMSG_FIRSTHDR(&msg); c != nullptr; c = CMSG_NXTHDR(&msg, c)) {
       if (c->cmsg_level == SOL_SOCKET && c->cmsg_type == SO_RXQ_OVFL) {
-        std::uint32_t dropped = 0;
-        std::memcpy(&dropped, CMSG_DATA(c), sizeof dropped);
-        stats_.kernel_dropped = dropped;  // the kernel's running count for this socket
+        std::uint32_t count = 0;
+        std::memcpy(&count, CMSG_DATA(c), sizeof count);
+        dropped = count;
       }
     }
-    if (got != static_cast<ssize_t>(sizeof in)) {
-      ++stats_.read_errors;
-      continue;
-    }
-    const auto frame = from_kernel_frame(in);
-    if (!frame) continue;  // error or remote frames: none pass the filters
-    if (log_ && !log_->write(*frame, t_ns)) ++stats_.log_errors;
-    if (const auto sample = decoder_.on_frame(*frame, t_ns)) {
-      if (!queue_.push(*sample)) ++stats_.queue_full;
-    }
+    // The log and the decoder are this thread's alone: the counters' lock is taken after them, so that a
+    // log write that waits on the disk never holds up a reader of stats(). Error and remote frames (no
+    // filter passes them) are skipped.
+    const auto frame = got == static_cast<ssize_t>(sizeof in) ? from_kernel_frame(in) : std::nullopt;
+    const bool log_failed = frame && log_ && !log_->write(*frame, t_ns);
+    const auto sample = frame ? decoder_.on_frame(*frame, t_ns) : std::nullopt;
+    const bool queue_full = sample && !queue_.push(*sample);
+    std::lock_guard lock(stats_mutex_);
+    if (dropped) stats_.kernel_dropped = *dropped;
+    if (got != static_cast<ssize_t>(sizeof in)) ++stats_.read_errors;
+    stats_.log_errors += log_failed;
+    stats_.queue_full += queue_full;
     stats_.decoded = decoder_.stats();
   }
   if (log_stream_ != nullptr) log_stream_->flush();

@@ -1,8 +1,9 @@
-// The SocketCAN sink. The pure helpers are checked against the constants of <linux/can.h> and
-// <linux/can/error.h> written out as numbers (the kernel ABI), so they run everywhere. The tests of
+// The SocketCAN sink and the vehicle speed receiver. The pure helpers are checked against the constants of
+// <linux/can.h> and <linux/can/error.h> written out as numbers (the kernel ABI), so they run everywhere. The tests of
 // the sink itself need a kernel with CAN and a virtual bus (RUTD_TEST_CAN_INTERFACE, default vcan0):
 // they skip on a machine without them, and test_socketcan_qemu runs them inside a guest kernel that
-// has both. An independent CAN_RAW socket opened by the test is the truth for what reached the bus.
+// has both (the receiver's decoding and queue are tested without a kernel in test_vehicle_speed and
+// test_trafficability_live). An independent CAN_RAW socket opened by the test is the truth for what reached the bus.
 //
 // Environment: RUTD_TEST_CAN_INTERFACE  the virtual CAN interface to use (default vcan0)
 //              RUTD_SOCKETCAN_SENT_LOG  if set, EncodedFramesArriveUnchanged also writes the frames it
@@ -16,12 +17,18 @@
 #include <unistd.h>
 
 #include <cerrno>
+#include <chrono>
+#include <condition_variable>
 #include <cstdlib>
 #include <cstring>
 #include <fstream>
+#include <mutex>
 #include <optional>
+#include <sstream>
+#include <streambuf>
 #include <string>
 #include <system_error>
+#include <thread>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -29,6 +36,8 @@
 #include "can/can_encoder.hpp"
 #include "can/candump_log.hpp"
 #include "can/socketcan_bus.hpp"
+#include "can/vehicle_speed.hpp"
+#include "can/vehicle_speed_receiver.hpp"
 #include "skip_policy.hpp"
 
 namespace rutd {
@@ -407,6 +416,159 @@ TEST_F(SocketCanBusOnKernel, InterfaceDownIsAWriteError) {
   ASSERT_TRUE(state.set_up(true));
   EXPECT_TRUE(sink.send(frame(0x18FF50A0, true, {1})));
   EXPECT_EQ(sink.stats().sent, 1u);
+}
+
+// ---------------------------------------------------------------------------------------------------
+// The vehicle speed receiver on a kernel: what its kernel filters pass, and the kernel's count of the
+// frames its full receive queue dropped (SO_RXQ_OVFL).
+
+class VehicleSpeedOnKernel : public SocketCanBusOnKernel {
+ protected:
+  // Waits up to 5 s (the guest is emulated) for the receiver to have read `frames` frames.
+  static bool wait_for_frames(const VehicleSpeedReceiver& receiver, std::uint64_t frames) {
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(5);
+    while (receiver.stats().decoded.frames < frames) {
+      if (std::chrono::steady_clock::now() > deadline) return false;
+      std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    }
+    return true;
+  }
+};
+
+// The speed (CCVS1) and gear (ETC2) messages from any sender pass; the same identifiers as standard
+// frames or remote requests, other parameter groups and error frames do not reach the decoder (its
+// count of other identifiers stays 0), and what passed is logged in candump format in order.
+TEST_F(VehicleSpeedOnKernel, FiltersPassOnlyTheSpeedAndTheGear) {
+  BusObserver bus;
+  VehicleSpeedConfig config;
+  config.direction_from_gear = true;
+  std::ostringstream log;
+  VehicleSpeedReceiver receiver(test_interface(), config, &log, "can0");
+  const CanFrame ccvs = encode_ccvs1(10.8, 0x00);
+  const CanFrame etc2 = encode_etc2_gear(1, 0x03);
+  std::vector<struct can_frame> foreign = {
+      kernel_frame(0x98FEF200, {1, 2, 3, 4, 5, 6, 7, 8}),  // another parameter group (the flood's)
+      kernel_frame(0x0F1, {0xFF, 0x00, 0x19, 0xFF}),       // a standard frame with CCVS1's low bits
+      kernel_frame(0xD8FEF100, {}),                        // a remote request for CCVS1 (EFF | RTR)
+      kernel_frame(0x20000040, {0, 0, 0, 0, 0, 0, 0, 0}),  // an error frame (bus off)
+      kernel_frame(0x98FEF000, {0xFF, 0x00, 0x19, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF}),  // PGN 0xFEF0
+  };
+  std::vector<CanFrame> passed;
+  for (int i = 0; i < 6; ++i) {
+    const CanFrame& wanted = i % 3 == 0 ? etc2 : ccvs;
+    ASSERT_TRUE(bus.inject(to_kernel_frame(wanted))) << std::strerror(errno);
+    passed.push_back(wanted);
+    for (const auto& k : foreign) ASSERT_TRUE(bus.inject(k)) << std::hex << k.can_id << ": " << std::strerror(errno);
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));  // beyond min_interval: no burst
+  }
+  ASSERT_TRUE(wait_for_frames(receiver, passed.size())) << "read " << receiver.stats().decoded.frames;
+  std::this_thread::sleep_for(std::chrono::milliseconds(100));  // a foreign frame would be read by now
+  receiver.stop();
+  const VehicleSpeedReceiverStats s = receiver.stats();
+  EXPECT_EQ(s.decoded.frames, passed.size());
+  EXPECT_EQ(s.decoded.other_id, 0u);
+  EXPECT_EQ(s.decoded.gear_frames, 2u);
+  EXPECT_EQ(s.decoded.ok, 4u);
+  EXPECT_EQ(s.kernel_dropped + s.read_errors + s.log_errors + s.queue_full, 0u);
+  std::istringstream lines(log.str());
+  std::size_t n = 0;
+  for (std::string line; std::getline(lines, line); ++n) {
+    const auto parsed = parse_candump_line(line);
+    ASSERT_TRUE(parsed) << line;
+    ASSERT_LT(n, passed.size()) << line;
+    EXPECT_EQ(parsed->first, passed[n]) << line;
+  }
+  EXPECT_EQ(n, passed.size()) << log.str();
+}
+
+// A stream buffer whose writes wait while its gate is closed: the receiver's thread, writing the log
+// line of the first frame, stops there, and its socket's queue fills as a stalled process's would.
+class GatedBuffer : public std::streambuf {
+ public:
+  void open() {
+    std::lock_guard lock(mutex_);
+    open_ = true;
+    changed_.notify_all();
+  }
+  // Waits up to 5 s for a writer to wait at the gate.
+  bool wait_for_writer() {
+    std::unique_lock lock(mutex_);
+    return changed_.wait_for(lock, std::chrono::seconds(5), [this] { return waiting_; });
+  }
+
+ protected:
+  std::streamsize xsputn(const char*, std::streamsize n) override {
+    wait_open();
+    return n;
+  }
+  int_type overflow(int_type c) override {
+    wait_open();
+    return traits_type::not_eof(c);
+  }
+
+ private:
+  void wait_open() {
+    std::unique_lock lock(mutex_);
+    waiting_ = true;
+    changed_.notify_all();
+    changed_.wait(lock, [this] { return open_; });
+  }
+  std::mutex mutex_;
+  std::condition_variable changed_;
+  bool open_ = false;
+  bool waiting_ = false;
+};
+
+// The receiver stalls (its log waits) while the vehicle sends: the kernel drops what the socket's
+// queue cannot hold, and reports its count with the next frame queued. Every frame sent is either read
+// or counted as dropped by the kernel, none twice; and the queue held frames, not nothing.
+TEST_F(VehicleSpeedOnKernel, FramesTheKernelDroppedAreCountedExactly) {
+  BusObserver bus;
+  GatedBuffer gate;
+  std::ostream log(&gate);
+  VehicleSpeedReceiver receiver(test_interface(), VehicleSpeedConfig{}, &log, "can0");
+  struct OpenAtExit {  // before the receiver's destructor joins its thread, whatever fails
+    GatedBuffer& gate;
+    ~OpenAtExit() { gate.open(); }
+  } open_at_exit{gate};
+  const struct can_frame ccvs = to_kernel_frame(encode_ccvs1(10.8, 0x00));
+  std::uint64_t sent = 0;
+  auto send = [&] {
+    for (int attempt = 0; attempt < 1000; ++attempt) {
+      if (bus.inject(ccvs)) return true;
+      if (errno != ENOBUFS && errno != EAGAIN) return false;
+      std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    }
+    return false;
+  };
+  ASSERT_TRUE(send()) << std::strerror(errno);
+  ++sent;
+  ASSERT_TRUE(gate.wait_for_writer()) << "the receiver never logged its first frame";
+  constexpr int kBurst = 5000;  // far beyond a default receive queue (about 200 frames)
+  for (int i = 0; i < kBurst; ++i) {
+    ASSERT_TRUE(send()) << "frame " << i << ": " << std::strerror(errno);
+    ++sent;
+  }
+  EXPECT_EQ(receiver.stats().decoded.frames, 0u) << "the receiver read while its log waited";
+  gate.open();
+  // Drained when the count stops moving; then one more frame, queued after the drops, carries their count.
+  std::uint64_t read = 0;
+  for (int quiet = 0; quiet < 20; std::this_thread::sleep_for(std::chrono::milliseconds(10))) {
+    const std::uint64_t now = receiver.stats().decoded.frames;
+    quiet = now == read ? quiet + 1 : 0;
+    read = now;
+  }
+  ASSERT_TRUE(send()) << std::strerror(errno);
+  ++sent;
+  ASSERT_TRUE(wait_for_frames(receiver, read + 1)) << "the frame after the drain was not read";
+  receiver.stop();
+  const VehicleSpeedReceiverStats s = receiver.stats();
+  std::printf("[ kernel   ] sent %llu, read %llu, dropped by the kernel %llu\n", static_cast<unsigned long long>(sent),
+              static_cast<unsigned long long>(s.decoded.frames), static_cast<unsigned long long>(s.kernel_dropped));
+  EXPECT_GT(s.kernel_dropped, 0u);
+  EXPECT_GT(s.decoded.frames, 10u) << "the socket's queue held next to nothing";
+  EXPECT_EQ(s.decoded.frames + s.kernel_dropped, sent);
+  EXPECT_EQ(s.read_errors, 0u);
 }
 
 }  // namespace

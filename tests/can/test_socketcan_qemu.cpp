@@ -222,17 +222,18 @@ void check_candump_matches_sent(const std::string& console, std::size_t min_fram
   fs::remove(errors);
 }
 
-// The sink's own kernel tests, which skip on a host without CAN, pass on a kernel with it.
+// The sink's and the speed receiver's own kernel tests, which skip on a host without CAN, pass on a
+// kernel with it.
 TEST_F(GuestKernel, SocketCanBusTestsPassOnARealKernel) {
   const fs::path tests = bin_dir() / "test_socketcan";
   ASSERT_TRUE(fs::exists(tests)) << "build the test_socketcan target first: " << tests;
   const GuestRun run = boot(quoted(tests) +
-                            " --gtest_filter='SocketCanBusOnKernel.*:SocketCanBusOpen.*' 2>&1\n"
+                            " --gtest_filter='SocketCanBusOnKernel.*:SocketCanBusOpen.*:VehicleSpeedOnKernel.*' 2>&1\n"
                             "echo RUTD-TESTS-EXIT=$?\n");
   SKIP_IF_NO_GUEST();
   ASSERT_TRUE(guest_completed(run));
   EXPECT_EQ(value_after(run.console, "RUTD-TESTS-EXIT="), "0") << run.console;
-  EXPECT_NE(run.console.find("[  PASSED  ] 5 tests."), std::string::npos) << run.console;
+  EXPECT_NE(run.console.find("[  PASSED  ] 7 tests."), std::string::npos) << run.console;
   EXPECT_EQ(run.console.find("SKIPPED"), std::string::npos) << "a kernel test skipped in the guest\n" << run.console;
 }
 
