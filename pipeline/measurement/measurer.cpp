@@ -1,6 +1,7 @@
 #include "measurement/measurer.hpp"
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <cstdint>
@@ -142,10 +143,14 @@ void StereoMeasurer::check_guards(FrameWork& w, RutWorkspace& workspace) const {
   note_water(m, w.frame.t_ns, workspace);
   if (!guards_ || m.status != RutStatus::Ok || !guards_asked(workspace, w.frame.t_ns)) return;
   const bool read_through = (m.conditions & kConditionWater) != 0;
+  std::array<std::pair<double, double>, 3> depths;  // the strip's and up to two guards' (StripConfig::guards)
+  std::size_t n = 0;
+  depths[n++] = {m.depth_mm, m.depth_uncertainty_mm};
   const std::lock_guard lock(guards_->mutex);
   for (StereoMeasurer& guard : guards_->strips) {
     const RutMeasurement g = guard.measure(w.frame.left, w.frame.right, w.frame.skew_ns, w.frame.t_ns);
     ++w.diag.guard_strips;
+    if (g.status == RutStatus::Ok && n < depths.size()) depths[n++] = {g.depth_mm, g.depth_uncertainty_mm};
     // Read through clear water here, the bottom must not be hidden there: a lid over clear water is
     // read through where the strip falls on its gaps. Dry here, no water found there: read through it,
     // or the bottom hidden by it (a candidate waterline, read both ways and UNCERTAIN, is no finding: it
@@ -160,6 +165,15 @@ void StereoMeasurer::check_guards(FrameWork& w, RutWorkspace& workspace) const {
       note_water(m, w.frame.t_ns, workspace);
       return;
     }
+  }
+  // Each strip dry, but one's deepest point at the level of a lid two strips found a moment ago: the
+  // lid, lit here like the soil (leaves floating on turbid water were published 25 mm shallow so, each
+  // strip having found the lid once, none twice running).
+  if (at_lid_of_two_strips(workspace, w.frame.t_ns, {depths.data(), n})) {
+    w.diag.guard_water = true;
+    m.conditions |= kConditionWater;
+    m.status = RutStatus::BottomNotSeen;
+    note_water(m, w.frame.t_ns, workspace);
   }
 }
 
@@ -491,6 +505,29 @@ LidMemory lid_found(const LidMemory& before, std::int64_t t_ns, double level_mm,
                     const WaterlineConfig& c) {
   return LidMemory{t_ns, true, level_mm, level_u_mm, lid_at_level(before, level_mm, level_u_mm, t_ns, c)};
 }
+
+}  // namespace
+
+bool StereoMeasurer::at_lid_of_two_strips(const RutWorkspace& workspace, std::int64_t t_ns,
+                                          std::span<const std::pair<double, double>> depths) const {
+  const WaterlineConfig& c = config_.water;
+  std::array<const LidMemory*, 3> lids{};
+  std::size_t n = 0;
+  lids[n++] = &workspace.last_lid;
+  for (const StereoMeasurer& guard : guards_->strips)
+    if (n < lids.size()) lids[n++] = &guard.rut_ws_.last_lid;
+  for (std::size_t a = 0; a < n; ++a) {
+    for (std::size_t b = 0; b < n; ++b) {
+      // Lid a, found within memory_s (lid_at_level asks), at the level of lid b, found within it too.
+      if (a == b || !lid_at_level(*lids[b], lids[a]->level_mm, lids[a]->level_u_mm, t_ns, c)) continue;
+      for (const auto& [depth, u] : depths)
+        if (lid_at_level(*lids[a], depth, u, t_ns, c)) return true;
+    }
+  }
+  return false;
+}
+
+namespace {
 
 // A surface at level_mm, meeting the walls at left_x_mm and right_x_mm, hides the bottom.
 void refuse_hidden(RutMeasurement& m, RutGeometry& g, double level_mm, double left_x_mm, double right_x_mm) {

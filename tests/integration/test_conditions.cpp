@@ -162,6 +162,15 @@ const Case kCases[] = {
      "--height 405 --roll 3.1 --seed 1309 --water-level 13.5 --debris 0.65 --debris-kind foam "
      "--water-attenuation 0.007",
      4, "Water", 1.0, true},
+    // Leaves floating on 26 mm of turbid water in a 64 mm grass rut: each strip (the measured one and its
+    // two guards) found the leaves at the water's level once, none twice running, and frame 6 was
+    // published OK 25.2 mm shallow, every strip's deepest point on the leaves; two strips' findings at
+    // one level now confirm the lid as two frames running do.
+    {"leaves_turbid_grass",
+     "--texture grass --depth 64.5 --width 212 --bottom-width 75 --pile-left 8.2 --pile-right 12.3 --baseline 48 "
+     "--height 427 --roll -4.0 --seed 1035 --water-level 26.3 --debris 0.45 --debris-kind leaves "
+     "--water-attenuation 0.566",
+     8, "Water", 1.0, true},
     // A clean 18 mm mud rut whose interior fell on the dark blotches of a mud textured at a larger scale
     // than the rut: a pair of weak darkening steps 5 mm below the ground, the whole span between them
     // darker than the walls above by a waterline's threshold, but no darker than the flat ground beside

@@ -10,6 +10,8 @@
 // Per-frame path: nothing here throws because of frame content; a status says what went wrong.
 #include <memory>
 #include <optional>
+#include <span>
+#include <utility>
 #include <vector>
 
 #include <opencv2/core.hpp>
@@ -205,6 +207,11 @@ class StereoMeasurer {
   // An OK frame measured again on the guard strips (StripConfig::guards) where guards_asked() says so, and
   // refused where one finds water; the frames flagged Water are remembered in `workspace`.
   void check_guards(FrameWork& w, RutWorkspace& workspace) const;
+  // Whether one of `depths` (depth, standard uncertainty, mm: the strip's and its guards' OK depths)
+  // lies at the level of a lid that this strip or a guard found within memory_s and another of them
+  // found at the same level (check_guards; the guards' lock held).
+  bool at_lid_of_two_strips(const RutWorkspace& workspace, std::int64_t t_ns,
+                            std::span<const std::pair<double, double>> depths) const;
   bool guards_asked(const RutWorkspace& workspace, std::int64_t t_ns) const;
   // The engine is to rectify this frame on its device (MeasurerConfig::rectify_on_device).
   bool device_rectifies(const StereoFrame& frame) const;
