@@ -135,13 +135,14 @@ void VehicleSpeedReceiver::read_pending() noexcept {
     // The log and the decoder are this thread's alone: the counters' lock is taken after them, so that a
     // log write that waits on the disk never holds up a reader of stats(). Error and remote frames (no
     // filter passes them) are skipped.
-    const auto frame = got == static_cast<ssize_t>(sizeof in) ? from_kernel_frame(in) : std::nullopt;
+    const bool whole = got == static_cast<ssize_t>(sizeof in);
+    const auto frame = whole ? from_kernel_frame(in) : std::nullopt;
     const bool log_failed = frame && log_ && !log_->write(*frame, t_ns);
     const auto sample = frame ? decoder_.on_frame(*frame, t_ns) : std::nullopt;
     const bool queue_full = sample && !queue_.push(*sample);
     std::lock_guard lock(stats_mutex_);
     if (dropped) stats_.kernel_dropped = *dropped;
-    if (got != static_cast<ssize_t>(sizeof in)) ++stats_.read_errors;
+    stats_.read_errors += !whole;
     stats_.log_errors += log_failed;
     stats_.queue_full += queue_full;
     stats_.decoded = decoder_.stats();

@@ -147,6 +147,7 @@ void StereoMeasurer::check_guards(FrameWork& w, RutWorkspace& workspace) const {
   std::size_t n = 0;
   depths[n++] = {m.depth_mm, m.depth_uncertainty_mm};
   const std::lock_guard lock(guards_->mutex);
+  bool refused = false;
   for (StereoMeasurer& guard : guards_->strips) {
     const RutMeasurement g = guard.measure(w.frame.left, w.frame.right, w.frame.skew_ns, w.frame.t_ns);
     ++w.diag.guard_strips;
@@ -156,20 +157,14 @@ void StereoMeasurer::check_guards(FrameWork& w, RutWorkspace& workspace) const {
     // or the bottom hidden by it (a candidate waterline, read both ways and UNCERTAIN, is no finding: it
     // is how a blotchy soil's shading looks to the waterline's tests).
     const bool water = (g.conditions & kConditionWater) != 0;
-    const bool refuses = read_through ? g.status == RutStatus::BottomNotSeen
-                                      : water && (g.status == RutStatus::Ok || g.status == RutStatus::BottomNotSeen);
-    if (refuses) {
-      w.diag.guard_water = true;
-      m.conditions |= kConditionWater;
-      m.status = RutStatus::BottomNotSeen;
-      note_water(m, w.frame.t_ns, workspace);
-      return;
-    }
+    refused = read_through ? g.status == RutStatus::BottomNotSeen
+                           : water && (g.status == RutStatus::Ok || g.status == RutStatus::BottomNotSeen);
+    if (refused) break;
   }
-  // Each strip dry, but one's deepest point at the level of a lid two strips found a moment ago: the
-  // lid, lit here like the soil (leaves floating on turbid water were published 25 mm shallow so, each
-  // strip having found the lid once, none twice running).
-  if (at_lid_of_two_strips(workspace, w.frame.t_ns, {depths.data(), n})) {
+  // No guard refusing it, but one strip's deepest point at the level of a lid two strips found a moment
+  // ago: the lid, lit here like the soil (leaves floating on turbid water were published 25 mm shallow
+  // so, each strip having found the lid once, none twice running).
+  if (refused || at_lid_of_two_strips(workspace, w.frame.t_ns, {depths.data(), n})) {
     w.diag.guard_water = true;
     m.conditions |= kConditionWater;
     m.status = RutStatus::BottomNotSeen;
