@@ -701,27 +701,6 @@ namespace {
 
 double unit_draw(std::uint64_t& state) { return static_cast<double>(splitmix64(state) >> 11) * 0x1.0p-53; }
 
-// Squared distance from the point p to the segment a + s (b - a), s in [0, 1], in the plane.
-inline double point_segment_sq(const cv::Vec2d& p, const cv::Vec2d& a, const cv::Vec2d& b) {
-  const cv::Vec2d ab = b - a, ap = p - a;
-  const double len_sq = ab.dot(ab);
-  const double s = len_sq > 0 ? std::clamp(ap.dot(ab) / len_sq, 0.0, 1.0) : 0.0;
-  const cv::Vec2d gap = ap - s * ab;
-  return gap.dot(gap);
-}
-
-// Squared distance between the segments p0-p1 and q0-q1 in the plane: 0 where they cross, otherwise the
-// least of the four end points' distances to the other segment.
-double segment_segment_sq(const cv::Vec2d& p0, const cv::Vec2d& p1, const cv::Vec2d& q0, const cv::Vec2d& q1) {
-  const auto side = [](const cv::Vec2d& a, const cv::Vec2d& b, const cv::Vec2d& c) {
-    return (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0]);
-  };
-  const double d0 = side(p0, p1, q0), d1 = side(p0, p1, q1), d2 = side(q0, q1, p0), d3 = side(q0, q1, p1);
-  if (((d0 < 0 && d1 > 0) || (d0 > 0 && d1 < 0)) && ((d2 < 0 && d3 > 0) || (d2 > 0 && d3 < 0))) return 0;
-  return std::min(std::min(point_segment_sq(p0, q0, q1), point_segment_sq(p1, q0, q1)),
-                  std::min(point_segment_sq(q0, p0, p1), point_segment_sq(q1, p0, p1)));
-}
-
 }  // namespace
 
 double SyntheticRenderer::blade_radiance(const RutTerrain& terrain, const cv::Vec3d& o, const cv::Vec3d& d,
@@ -742,22 +721,13 @@ double SyntheticRenderer::blade_radiance(const RutTerrain& terrain, const cv::Ve
   const double cell = c.grass_spacing_mm;
   const int i0 = int(std::floor((std::min(a[0], b[0]) - reach) / cell));
   const int i1 = int(std::floor((std::max(a[0], b[0]) + reach) / cell));
+  const int j0 = int(std::floor((std::min(a[1], b[1]) - reach) / cell));
+  const int j1 = int(std::floor((std::max(a[1], b[1]) + reach) / cell));
   double best_t = t > 0 ? t : 1e300, best = -1;
   const double half_width = 0.5 * terrain.shape().width_mm;
-  const cv::Vec2d ray_a(a[0], a[1]), ray_b(b[0], b[1]), ray_plan = ray_b - ray_a;
+  const cv::Vec2d ray_a(a[0], a[1]), ray_plan(b[0] - a[0], b[1] - a[1]);
   const double ray_plan_sq = ray_plan.dot(ray_plan);
   for (int i = i0; i <= i1; ++i) {
-    // A blade stands within reach of its foot, so only cells within reach of the ray's plan can hold one
-    // it meets: the part of the plan over this column of cells, widened by reach, bounds the rows.
-    const double x_lo = i * cell - reach, x_hi = (i + 1) * cell + reach, dx = b[0] - a[0];
-    double s0 = 0, s1 = 1;
-    if (std::abs(dx) > 1e-12) {
-      s0 = std::clamp((x_lo - a[0]) / dx, 0.0, 1.0), s1 = std::clamp((x_hi - a[0]) / dx, 0.0, 1.0);
-      if (s0 > s1) std::swap(s0, s1);
-    }
-    const double y0 = a[1] + s0 * (b[1] - a[1]), y1 = a[1] + s1 * (b[1] - a[1]);
-    const int j0 = int(std::floor((std::min(y0, y1) - reach) / cell));
-    const int j1 = int(std::floor((std::max(y0, y1) + reach) / cell));
     for (int j = j0; j <= j1; ++j) {
       std::uint64_t state = params_.seed * 0x2545F4914F6CDD1Dull ^ (std::uint64_t(std::uint32_t(i)) << 32) ^
                             std::uint64_t(std::uint32_t(j));
@@ -767,14 +737,12 @@ double SyntheticRenderer::blade_radiance(const RutTerrain& terrain, const cv::Ve
       const double lean_y = unit_draw(state), lean_x = unit_draw(state);  // y first: the order fixes the scene
       const cv::Vec3d axis(0.8 * length * (lean_x - 0.5), 0.8 * length * (lean_y - 0.5), length);
       const double radius = 0.6 + 0.6 * unit_draw(state);
-      // Seen from above, the ray between the top of the grass and the terrain and the blade must come
-      // within its radius: the plan distance is a lower bound of the distance in space, so this skips
-      // only blades the ray misses (the terrain's height, the costly part, is looked up after it).
-      const cv::Vec2d foot(bx, by), tip(bx + axis[0], by + axis[1]);
-      const double side = ray_plan[0] * (by - ray_a[1]) - ray_plan[1] * (bx - ray_a[0]);  // |ray_plan| x offset
+      // Seen from above, the blade (foot to tip, widened by its radius) must reach the line of the ray's
+      // plan: the plan distance is a lower bound of the distance in space, so this skips only blades the
+      // ray misses, before the terrain's height (the costly part) is looked up.
+      const double side = ray_plan[0] * (by - ray_a[1]) - ray_plan[1] * (bx - ray_a[0]);  // offset x |ray_plan|
       const double lean = std::sqrt(axis[0] * axis[0] + axis[1] * axis[1]) + radius;
-      if (side * side > lean * lean * ray_plan_sq) continue;  // the line through the plan passes clear
-      if (segment_segment_sq(ray_a, ray_b, foot, tip) > radius * radius) continue;
+      if (side * side > lean * lean * ray_plan_sq) continue;
       const double shade = 0.25 + 0.35 * unit_draw(state), phase = 6.0 * unit_draw(state);
       const cv::Vec3d base(bx, by, terrain.height_fast(bx, by));
       const cv::Vec3d w0 = o - base;
