@@ -30,8 +30,8 @@ if [ "${2:-}" = --setup ]; then
     { cat /var/tmp/rutd-dpkg-install.log; exit 1; }
   # The guest has no cameras: the installed configuration's source (aravis) becomes the synthetic one,
   # as an integrator sets it up on a bench. Everything else stays as installed but for the synthetic
-  # camera's pace, for the emulated CPU: 5 pairs a second instead of 30 (a pair costs about 0.4 s there:
-  # at 30 Hz rutd kept the guest busy with pairs it then dropped, while dpkg and systemctl waited) and 2
+  # camera's pace, for the emulated CPU: 5 pairs a second instead of 30 (at 30 Hz rutd kept the guest
+  # busy with pairs it then dropped, while dpkg and systemctl waited) and 2
   # pairs rendered at each of rutd's seven starts instead of 8. Measured alone on two CPUs: the guest's
   # run 385 -> 338 s, the emulator's CPU time 380 -> 295 s; with the rest of the suite beside it, the
   # CPUs it no longer takes are theirs.
