@@ -31,10 +31,10 @@ if [ "${2:-}" = --setup ]; then
   # The guest has no cameras: the installed configuration's source (aravis) becomes the synthetic one,
   # as an integrator sets it up on a bench. Everything else stays as installed but for the synthetic
   # camera's pace, for the emulated CPU: 5 pairs a second instead of 30 (at 30 Hz rutd kept the guest
-  # busy with pairs it then dropped, while dpkg and systemctl waited) and 2
-  # pairs rendered at each of rutd's seven starts instead of 8. Measured alone on two CPUs: the guest's
-  # run 385 -> 338 s, the emulator's CPU time 380 -> 295 s; with the rest of the suite beside it, the
-  # CPUs it no longer takes are theirs.
+  # busy with pairs it then dropped, while dpkg and systemctl waited) and 2 pairs rendered at each of
+  # rutd's seven starts instead of 8. Measured alone on two CPUs: the guest's run 385 -> 338 s, the
+  # emulator's CPU time 380 -> 295 s; with the rest of the suite beside it, the CPUs it no longer takes
+  # are theirs.
   sed -i 's/^  type: aravis /  type: synthetic/; s|^calibration: /etc/rutd/calibration.yaml|calibration: ""|' /etc/rutd/rutd.yaml
   sed -i '/^  synthetic:/,/^  replay:/ { s/^    fps: 30\b/    fps: 5/; s/^    cycle_frames: 8\b/    cycle_frames: 2/ }' /etc/rutd/rutd.yaml
   grep -q '^  type: synthetic' /etc/rutd/rutd.yaml

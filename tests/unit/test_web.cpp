@@ -213,6 +213,7 @@ TEST(WebLiveView, PairsAtCameraRateReachThePageAtTheConfiguredRateWithTheirFigur
   // then each first pair at least 1/rate_hz after the last one let through. Counted here rather than
   // bounded by the elapsed time, because a thread descheduled for a while (ThreadSanitizer on a loaded
   // machine) catches up in a burst of pairs of which only one may pass.
+  const std::chrono::nanoseconds interval(static_cast<std::int64_t>(1e9 / c.rate_hz));
   std::uint64_t expected_offers = 0;
   auto last_offer = std::chrono::steady_clock::time_point::min();
   const auto t0 = std::chrono::steady_clock::now();
@@ -221,7 +222,7 @@ TEST(WebLiveView, PairsAtCameraRateReachThePageAtTheConfiguredRateWithTheirFigur
     m.work.frame.t_ns = static_cast<std::int64_t>(i) * 10'000'000;
     m.work.measurement.depth_mm = 40.0 + 0.01 * static_cast<double>(i);
     const auto handed = std::chrono::steady_clock::now();
-    if (expected_offers == 0 || handed - last_offer >= 200ms) {
+    if (expected_offers == 0 || handed - last_offer >= interval) {
       ++expected_offers;
       last_offer = handed;
     }
