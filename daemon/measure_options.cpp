@@ -11,6 +11,11 @@ void add_measure_options(CLI::App& cmd, MeasureOptions& o) {
       ->capture_default_str();
   cmd.add_flag("--no-dic", o.no_dic,
                "Skip the sub-pixel refinement by digital image correlation (faster, biased toward whole pixels)");
+  cmd.add_option("--gap-fill-window", o.config.gap_fill_half_window,
+                 "Half width (px, 6..15) of the DIC windows that read the gaps of a depth UNCERTAIN only for its gaps "
+                 "again (measurement.gap_fill_half_window); 0: off")
+      ->check(CLI::Range(0, 15))
+      ->capture_default_str();
   cmd.add_option("--strip-rows", o.strip_rows,
                  "Rows of the rectified image measured (0: a tenth of the height, 20..64)")
       ->check(CLI::Range(0, 4096));
@@ -50,6 +55,9 @@ MeasurerConfig resolve_measure_options(const MeasureOptions& o) {
   c.engine = *parse_engine(o.engine);  // IsMember above guarantees a known name
   c.dic = !o.no_dic;
   if (c.range.near_mm >= c.range.far_mm) throw CLI::ValidationError("--near-mm", "must be smaller than --far-mm");
+  if (c.gap_fill_half_window != 0 && c.gap_fill_half_window <= c.dic_config.half_window)
+    throw CLI::ValidationError("--gap-fill-window", "must be 0 (off) or wider than the DIC's " +
+                                                        std::to_string(c.dic_config.half_window) + " px, up to 15");
   if (c.rut.min_rut_width_mm >= c.rut.max_rut_width_mm)
     throw CLI::ValidationError("--min-width-mm", "must be smaller than --max-width-mm");
   c.strip.rows = o.strip_rows;

@@ -329,6 +329,81 @@ double unseen_excess(const std::vector<double>& h_fit, const std::vector<double>
   return std::max(0.0, worst);
 }
 
+// The gap bound of unseen_excess where a second reading of the strip (wider matching windows) covers
+// the gaps: h_fill are its smoothed heights above the line on the section's grid, offset to the
+// section's (fill_heights; NaN where it has none), tol the scatter of their difference to the section's.
+// A gap it covers but for runs shorter than reach_bins (which its smoothing bridges) is bounded by the
+// deepest of its bins there, plus tol; one it does not cover keeps the walls' bound. Returns the excess
+// over `depth`, mm (>= 0).
+double unseen_excess_filled(const std::vector<double>& h_fit, const std::vector<double>& slope, double m, const Grid& g,
+                            const Opening& o, double depth, double norm, int reach_bins,
+                            const std::vector<double>& h_fill, double tol) {
+  double worst = 0.0;
+  int last = -1;
+  for (int i = o.left_bin; i <= o.right_bin; ++i) {
+    if (std::isnan(h_fit[i])) continue;
+    if (last >= 0 && i - last > 1) {
+      double deepest = -std::numeric_limits<double>::infinity();
+      int run = 0, longest = 0;
+      for (int j = last + 1; j < i; ++j) {
+        if (std::isnan(h_fill[j])) {
+          longest = std::max(longest, ++run);
+        } else {
+          run = 0;
+          deepest = std::max(deepest, -h_fill[j]);
+        }
+      }
+      if (longest <= reach_bins && std::isfinite(deepest)) {
+        worst = std::max(worst, deepest + tol - depth);
+      } else {
+        // Not covered: the walls' bound of this gap alone (a section of the two bins around it).
+        Opening gap = o;
+        gap.left_bin = last;
+        gap.right_bin = i;
+        worst = std::max(worst, unseen_excess(h_fit, slope, m, g, gap, depth, norm, reach_bins));
+      }
+    }
+    last = i;
+  }
+  return std::max(0.0, worst);
+}
+
+// gap_fill smoothed as the section is (sliding_quadratic over the fit window), as heights above `line` on
+// the section's grid into h (NaN where it has none), less their median difference to the section's
+// smoothed ones (h_fit) over the bins both measured; returns the scatter (1.4826 MAD) of that
+// difference, or NaN with fewer than kMinOverlapBins such bins. z, slope and scratch are overwritten.
+double fill_heights(const CrossSection& section, const CrossSection& fill, const Profile& p, const detail::Line& line,
+                    const std::vector<double>& h_fit, std::vector<double>& z, std::vector<double>& slope,
+                    std::vector<double>& h, std::vector<double>& scratch) {
+  constexpr std::size_t kMinOverlapBins = 16;
+  const Grid& g = p.grid;
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  z.assign(static_cast<std::size_t>(g.n), nan);
+  h.assign(static_cast<std::size_t>(g.n), nan);
+  scratch.clear();
+  if (!(std::abs(fill.dx_mm - g.dx) < 1e-9)) return nan;
+  const long offset = std::lround((fill.x0_mm - g.x0) / g.dx);  // section bin of fill's bin 0
+  for (int i = 0; i < g.n; ++i) {
+    const long k = i - offset;
+    if (k >= 0 && k < static_cast<long>(fill.z_mm.size())) z[i] = fill.z_mm[static_cast<std::size_t>(k)];
+  }
+  detail::sliding_quadratic(z, g.dx, p.half, p.half + 1, h, slope);
+  const double inv_norm = 1.0 / std::sqrt(1.0 + line.m * line.m);
+  for (int i = 0; i < g.n; ++i) {
+    if (std::isnan(z[i])) h[i] = nan;  // a value the fit carried into a bin fill did not measure
+    if (std::isnan(h[i])) continue;
+    h[i] = (line.m * g.x(i) + line.c - h[i]) * inv_norm;
+    if (!std::isnan(h_fit[i]) && !std::isnan(section.z_mm[i])) scratch.push_back(h[i] - h_fit[i]);
+  }
+  if (scratch.size() < kMinOverlapBins) return nan;
+  // The two readings' offset (a wider window's bias on the slopes it spans) taken out: the section is
+  // the reference, its depth the one published.
+  const double median = detail::median_inplace(scratch.data(), scratch.data() + scratch.size());
+  for (double& d : scratch) d = std::abs(d - median);
+  for (double& v : h) v -= median;
+  return 1.4826 * detail::median_inplace(scratch.data(), scratch.data() + scratch.size());
+}
+
 // Robust (1.4826 MAD) scatter of the smoothed heights of the ground bins (outside the disturbed zone)
 // about the ground line, mm; 0 with fewer than 8 such bins. `scratch` is overwritten.
 double smoothed_ground_sigma(const std::vector<double>& h_fit, const Zone& zone, std::vector<double>& scratch) {
@@ -342,7 +417,8 @@ double smoothed_ground_sigma(const std::vector<double>& h_fit, const Zone& zone,
 
 }  // namespace
 
-RutMeasurement extract_rut(const CrossSection& section, const RutConfig& params, RutWorkspace& ws) {
+RutMeasurement extract_rut(const CrossSection& section, const RutConfig& params, RutWorkspace& ws,
+                           const CrossSection* gap_fill) {
   RutMeasurement out;
   ws.geometry = RutGeometry{};
   const int n = static_cast<int>(section.z_mm.size());
@@ -456,7 +532,15 @@ RutMeasurement extract_rut(const CrossSection& section, const RutConfig& params,
   const double u_line = line_error_at(ws.ground_x, ws.ground_z, line, p.grid.x(k), ws.c);
   const double unseen = unseen_excess(ws.h_fit, ws.slope, line.m, p.grid, o, out.depth_mm, norm, p.half);
   geo.unseen_depth_mm = unseen;
-  const double u_gap = unseen / std::sqrt(3.0);
+  double bound = unseen;
+  if (gap_fill != nullptr && unseen > 0.0) {
+    const double tol = fill_heights(section, *gap_fill, p, line, ws.h_fit, ws.a, ws.b, ws.h_fill, ws.c);
+    if (std::isfinite(tol)) {
+      bound = unseen_excess_filled(ws.h_fit, ws.slope, line.m, p.grid, o, out.depth_mm, norm, p.half, ws.h_fill, tol);
+    }
+  }
+  geo.unseen_bound_mm = bound;
+  const double u_gap = bound / std::sqrt(3.0);
   out.depth_uncertainty_mm = std::sqrt(wander * wander + u_line * u_line + u_gap * u_gap);
   const double limit = params.max_depth_uncertainty_mm;
   const double quality = depth_quality(out.depth_uncertainty_mm, limit);

@@ -80,6 +80,11 @@ StereoMeasurer::StereoMeasurer(const StereoCalibration& calibration, const Measu
   // measure()'s engine is made on its first call: the real-time pipeline and replay make their own, and a
   // GPU engine made here too would open the device twice. Bad parameters still throw here.
   check_engine(config_.engine, config_.engine_config);
+  const int gap_window = config_.gap_fill_half_window;
+  if (gap_window != 0 && (gap_window <= config_.dic_config.half_window || gap_window > 15))
+    throw std::invalid_argument("gap_fill_half_window must be 0 (off) or wider than the DIC's half window (" +
+                                std::to_string(config_.dic_config.half_window) + " px) up to 15 px, got " +
+                                std::to_string(gap_window));
   if (config_.water.enabled && config_.strip.guards > 0) {
     if (config_.strip.guards > 2 || !(config_.strip.guard_spacing > 0.0 && config_.strip.guard_spacing <= 0.5) ||
         !(config_.strip.guard_after_water_s >= 0.0))
@@ -725,6 +730,62 @@ void StereoMeasurer::weigh_candidate_waterline(FrameWork& w, RutWorkspace& works
   mark_water(workspace.geometry, line.level_mm, line.left_x_mm, line.right_x_mm);
 }
 
+namespace {
+
+// dst: src with each row's runs of NaN between two valid values, in rows [row_begin, row_end), filled by
+// linear interpolation between them (runs at a row's ends stay NaN); other rows NaN. The start of a
+// second DIC reading of the gaps: a wall the windows rejected lies between the values at its ends to
+// within the DIC's convergence range far more often than the engine's start there exists (reused
+// starts carry the last frame's gaps, and a GPU engine keeps its start on the device).
+void carry_across_gaps(const cv::Mat& src, int row_begin, int row_end, cv::Mat& dst) {
+  dst.create(src.size(), CV_32FC1);
+  dst.setTo(std::numeric_limits<float>::quiet_NaN());
+  for (int r = std::max(row_begin, 0); r < std::min(row_end, src.rows); ++r) {
+    const float* in = src.ptr<float>(r);
+    float* out = dst.ptr<float>(r);
+    int last = -1;
+    for (int c = 0; c < src.cols; ++c) {
+      if (std::isnan(in[c])) continue;
+      out[c] = in[c];
+      if (last >= 0 && c - last > 1) {
+        const float step = (in[c] - in[last]) / static_cast<float>(c - last);
+        for (int k = last + 1; k < c; ++k) out[k] = in[last] + step * static_cast<float>(k - last);
+      }
+      last = c;
+    }
+  }
+}
+
+}  // namespace
+
+void StereoMeasurer::read_gaps(FrameWork& w, RutWorkspace& workspace, int first) const {
+  const RutMeasurement& m = w.measurement;
+  const RutGeometry& g = workspace.geometry;
+  const double limit = config_.rut.max_depth_uncertainty_mm;
+  if (config_.gap_fill_half_window <= 0 || !config_.dic || m.status != RutStatus::Uncertain || !g.has_rut ||
+      !(g.unseen_depth_mm > 0.0) || w.disparity.empty())
+    return;
+  // Only where the gaps alone push u over the limit: the rest of u is the narrow windows' own.
+  const double u_gap = g.unseen_depth_mm / std::sqrt(3.0);
+  const double u = m.depth_uncertainty_mm;
+  if (!(u * u - u_gap * u_gap <= limit * limit)) return;
+  DicConfig wide = strip_dic_config();
+  wide.half_window = config_.gap_fill_half_window;
+  // A wall of slope s (dZ/dX) at range Z changes the disparity by B s / Z px a pixel (0.5, the first
+  // reading's bound, at about 65 degrees with 117 mm of baseline at 500 mm): windows started from a
+  // line across a gap reach steep snow walls only through steeper warps on the way (measured: with 0.5
+  // they converge on a fraction of the gap's columns, with 2 on nearly all).
+  wide.max_gradient = 2.0;
+  // Started from a line across the gap, a window converges in more steps than from the engine's start.
+  wide.max_iterations = 60;
+  carry_across_gaps(w.disparity, wide.row_begin, wide.row_end, w.gap_disparity);
+  refine_disparity_dic(w.left_strip, w.right_strip, w.gap_disparity, wide, w.gap_dic);
+  geometry_.reproject(w.gap_disparity, w.gap_xyz);
+  reduce_to_cross_section(w.gap_xyz.rowRange(first, first + strip_.rows), config_.rut, w.gap_section);
+  w.measurement = extract_rut(w.section, config_.rut, workspace, &w.gap_section);
+  w.diag.gaps_read = true;
+}
+
 void StereoMeasurer::extract(FrameWork& w, RutWorkspace& workspace) const {
   auto t0 = Clock::now();
   geometry_.reproject(w.disparity, w.xyz);
@@ -736,6 +797,7 @@ void StereoMeasurer::extract(FrameWork& w, RutWorkspace& workspace) const {
   t0 = Clock::now();
   reduce_to_cross_section(measured, config_.rut, w.section);
   w.measurement = extract_rut(w.section, config_.rut, workspace);
+  read_gaps(w, workspace, first);
   read_through_water(w, workspace, measured, first);
   // The raw rows numbered as the measured strip's (near them: rectification moves rows little about the
   // principal row, and the light is the same a few rows away): sixteen of them per camera tell the light

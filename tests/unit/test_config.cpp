@@ -66,11 +66,11 @@ std::string dump(const RutdConfig& c) {
   const MeasurerConfig& m = c.measurement;
   o << "\ncalibration=" << c.calibration << "\nengine=" << static_cast<int>(m.engine)
     << "\ngpu_device=" << m.engine_config.gpu_device << "\nsgm_paths=" << m.engine_config.sgm_paths
-    << "\nsgm_segment=" << m.engine_config.sgm_segment << "\ndic=" << m.dic << "\nstrip=" << m.strip.rows << ","
-    << m.strip.first_row.value_or(-1) << "," << m.strip.guards << "," << m.strip.guard_spacing << ","
-    << m.strip.guards_always << "," << m.strip.guard_after_water_s << "\nrange=" << m.range.near_mm << ","
-    << m.range.far_mm << "\nrut=" << m.rut.min_rut_width_mm << "," << m.rut.max_rut_width_mm << ","
-    << m.rut.fit_window_mm << "," << m.rut.bin_mm << "," << m.rut.min_rut_depth_mm;
+    << "\nsgm_segment=" << m.engine_config.sgm_segment << "\ndic=" << m.dic << "," << m.gap_fill_half_window
+    << "\nstrip=" << m.strip.rows << "," << m.strip.first_row.value_or(-1) << "," << m.strip.guards << ","
+    << m.strip.guard_spacing << "," << m.strip.guards_always << "," << m.strip.guard_after_water_s
+    << "\nrange=" << m.range.near_mm << "," << m.range.far_mm << "\nrut=" << m.rut.min_rut_width_mm << ","
+    << m.rut.max_rut_width_mm << "," << m.rut.fit_window_mm << "," << m.rut.bin_mm << "," << m.rut.min_rut_depth_mm;
   o << "\ncan=" << c.can.extended << "," << int(c.can.source_address) << "," << int(c.can.priority);
   o << "\nsinks=" << c.sinks.socketcan << "," << c.sinks.candump << "," << c.sinks.can_interface_name << ","
     << c.sinks.csv;
@@ -171,6 +171,17 @@ TEST(Config, GpuEngineAndDeviceAreRead) {
   EXPECT_EQ(c.measurement.engine_config.sgm_segment, 64);
   expect_error("measurement:\n  sgm_paths: 3\n", {"line 2", "measurement.sgm_paths", "2, 4 or 8"});
   expect_error("measurement:\n  sgm_segment: 8\n", {"line 2", "measurement.sgm_segment", "16..65535"});
+}
+
+TEST(Config, GapFillWindowIsReadAndBounded) {
+  EXPECT_EQ(parse_config("measurement:\n  dic: true\n", "test.yaml").measurement.gap_fill_half_window, 11);
+  EXPECT_EQ(parse_config("measurement:\n  gap_fill_half_window: 0\n", "test.yaml").measurement.gap_fill_half_window, 0);
+  EXPECT_EQ(parse_config("measurement:\n  gap_fill_half_window: 15\n", "test.yaml").measurement.gap_fill_half_window,
+            15);
+  // No wider than the narrow windows (5 px) it reads again, and no wider than the DIC's 15 px.
+  expect_error("measurement:\n  gap_fill_half_window: 5\n",
+               {"line 2", "measurement.gap_fill_half_window", "0 (off) or 6..15", "got 5"});
+  expect_error("measurement:\n  gap_fill_half_window: 16\n", {"line 2", "measurement.gap_fill_half_window", "got 16"});
 }
 
 TEST(Config, UnknownKeyIsNamedWithItsLine) {

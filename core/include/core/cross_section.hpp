@@ -40,6 +40,9 @@ struct RutGeometry {
   // How much deeper than the depth the rut could be where it was not seen (gaps inside the opening
   // whose walls still descend into them; see extract_rut's coverage term), mm; valid with has_rut.
   double unseen_depth_mm = 0.0;
+  // The same bound as the depth uncertainty counts it: unseen_depth_mm, or less where a second reading
+  // with wider windows saw into the gaps (extract_rut's gap_fill), mm; valid with has_rut.
+  double unseen_bound_mm = 0.0;
   // Standing water found in the rut (a level waterline on both walls): the surface's depth below the
   // ground line and the X of the two waterlines; refracted: the depth was read through the water, on
   // the section corrected for refraction at the surface (the section a sink sees is that one).

@@ -75,6 +75,7 @@ struct RutWorkspace {
   std::vector<double> b;
   std::vector<double> c;
   std::vector<double> ground_x, ground_z;  // the ground bins of the last line fit
+  std::vector<double> h_fill;              // gap_fill's heights above the line, on the section's grid
   // Carried from frame to frame by the one caller that measures a sequence with this workspace (the
   // extract stage; measure()): the last waterline a frame confirmed, and the last lid it found.
   WaterlineMemory last_waterline;
@@ -107,7 +108,17 @@ void reduce_to_cross_section(const cv::Mat& xyz, const RutConfig& params, CrossS
 // and quality = 1 - u / (2 max_depth_uncertainty_mm), clamped to 0..1 (0 unless the status is Ok,
 // Uncertain or Vegetation). A rough profile is Vegetation and a depth with u above the limit Uncertain
 // (both with the depth computed but not Ok).
-RutMeasurement extract_rut(const CrossSection& section, const RutConfig& params, RutWorkspace& ws);
+//
+// gap_fill (optional): the same strip read again with wider matching windows, on the same bin width.
+// Wider windows see into low-texture, steep patches (snow walls) that the section's own windows leave
+// as gaps, at less lateral resolution. gap_fill is smoothed as the section is and offset onto it (the
+// median difference of the two smoothed profiles over the bins both measured, at least 16); a gap it
+// covers (no run of missing bins as long as half the fit window) is bounded by its deepest smoothed
+// bin there plus the scatter of that difference (1.4826 MAD) instead of by the walls' slopes
+// (RutGeometry::unseen_bound_mm). The depth itself and unseen_depth_mm (what the section's own bins
+// leave unseen, which the frame checks judge) are the section's alone.
+RutMeasurement extract_rut(const CrossSection& section, const RutConfig& params, RutWorkspace& ws,
+                           const CrossSection* gap_fill = nullptr);
 
 // quality from a depth uncertainty u against the limit (RutConfig::max_depth_uncertainty_mm), as above:
 // 1 - u / (2 limit), clamped to 0..1; 0 when the limit is not positive.

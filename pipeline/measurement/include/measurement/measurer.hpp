@@ -87,6 +87,14 @@ struct MeasurerConfig {
   // the refined disparity come back; the rectify stage then only checks the frame. false: the CPU
   // rectifies and the engine gets the strips.
   bool rectify_on_device = true;
+  // A frame whose depth is Uncertain only for its gaps (extract_rut's coverage term: low-texture,
+  // foreshortened walls whose windows the DIC rejects, the walls' slopes then bounding what the gaps
+  // could hide) is read again by DIC with windows this wide (half width, px; dic_config.half_window + 1
+  // to 15), started from its refined disparity carried linearly across each row's gaps, and its gaps
+  // bounded by what that reading sees (extract_rut's gap_fill). The depth stays the narrow windows':
+  // wide windows blur a lid's edges and the bottom's curvature. In extract(), on the CPU, for any
+  // engine; other frames cost nothing. 0: off.
+  int gap_fill_half_window = 11;
   static constexpr int kMaxReusedFrames = 15;
   static constexpr double kMinReusedShare = 0.97;
   RutConfig rut;
@@ -110,6 +118,7 @@ struct MeasurementDiagnostics {
   bool band_on_device = false;  // the band's coarse pass ran on the engine's device (it rectified too)
   int guard_strips = 0;         // guard strips measured (StripConfig::guards), in rut_ms
   bool guard_water = false;     // ... and one of them refused the frame
+  bool gaps_read = false;  // the gaps were read with wider windows (MeasurerConfig::gap_fill_half_window), in rut_ms
 };
 
 // Everything one pair needs on its way through the stages. Frame pools hold these; every buffer is
@@ -135,6 +144,11 @@ struct FrameWork {
   std::vector<int> bin_pixels;
   CrossSection refracted;
   WaterlineWorkspace water;
+  // The gaps read with wider windows (MeasurerConfig::gap_fill_half_window): the refined disparity
+  // carried across the gaps and refined again, its points and cross-section, and the DIC's scratch.
+  cv::Mat gap_disparity, gap_xyz;
+  CrossSection gap_section;
+  DicWorkspace gap_dic;
 };
 
 // What the sinks see of a frame (core/measurement_sink.hpp): its figures and `health`, and, once
@@ -200,6 +214,9 @@ class StereoMeasurer {
   // where it can (8-bit frames, a GPU engine), else on the CPU from the strips (rectified first if needed).
   DisparityBand estimate_band(FrameWork& w, MatchContext& context) const;
   DicConfig strip_dic_config() const;
+  // An Uncertain depth whose gaps alone make it so, measured again with its gaps read by wider windows
+  // (MeasurerConfig::gap_fill_half_window); `first`: the measured strip's first row within the strips.
+  void read_gaps(FrameWork& w, RutWorkspace& workspace, int first) const;
   void read_through_water(FrameWork& w, RutWorkspace& workspace, const cv::Mat& measured, int first) const;
   void read_waterline(FrameWork& w, RutWorkspace& workspace, const WaterlineMemory& last, const LidMemory& last_lid,
                       const LevelSpan& lid, double lid_u, double y_mm) const;

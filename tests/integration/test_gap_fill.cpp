@@ -1,0 +1,92 @@
+// The gaps of a profile read again with wider DIC windows (MeasurerConfig::gap_fill_half_window), end to
+// end as a user runs it: `rutd synth` renders clean ruts in snow whose steep, low-texture walls the
+// 5 px windows leave unmatched, `rutd replay` measures them with the second reading and without it
+// (--gap-fill-window 0). Against the renderer's truth, the second reading must publish more of the
+// frames, and every frame published OK, with it or without, must be within 1 mm.
+#include <cmath>
+#include <cstdio>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "recording/measurement_csv.hpp"
+#include "synthetic/truth_csv.hpp"
+#include "test_support.hpp"
+
+namespace rutd {
+namespace {
+
+// Two of the scene matrix's clean snow scenes (`rutd bench --scenes`: clean-manual-snow-02 and -50):
+// other rigs, lighting and noise than the end-to-end cases.
+constexpr const char* kScenes[] = {
+    "--texture snow --depth 71.4 --width 230 --bottom-width 69 --pile-left 0.3 --pile-right 12.0 --offset -1 "
+    "--baseline 117 --height 501 --hfov 75 --roll 0.8 --pitch -5.7 --noise 1.31 --speed 746 --right-response 0.994 "
+    "--seed 2002 --exposure 0.89",
+    "--texture snow --depth 53.6 --width 224 --bottom-width 106 --pile-left 14.3 --pile-right 2.7 --offset 23 "
+    "--baseline 64 --height 473 --hfov 75 --roll -1.4 --pitch 7.2 --noise 1.76 --speed 819 --right-response 1.041 "
+    "--seed 2050 --exposure 0.67",
+};
+constexpr int kFrames = 8;
+
+struct Count {
+  int frames = 0, ok = 0, ok_beyond_1mm = 0;
+};
+
+// Replays rec with `options`, adding its outcomes to `count` against the truth.
+void replay_and_count(const std::string& rec, const std::string& options, const test::TempDir& tmp, int tag,
+                      Count& count) {
+  const std::string csv = (tmp.path() / ("m" + std::to_string(tag) + ".csv")).string();
+  const std::string err = (tmp.path() / ("err" + std::to_string(tag) + ".txt")).string();
+  ASSERT_EQ(test::run_rutd("replay " + rec + " --out " + csv + " " + options, err), 0) << test::read_text(err);
+  const auto rows = read_measurement_csv(csv).rows;
+  const auto truth = read_truth_csv(rec + "/truth.csv");
+  ASSERT_EQ(rows.size(), truth.size());
+  for (std::size_t i = 0; i < rows.size(); ++i) {
+    ++count.frames;
+    if (rows[i].measurement.status != RutStatus::Ok) continue;
+    ++count.ok;
+    const double error = rows[i].measurement.depth_mm - truth[i].depth_mm;
+    if (std::abs(error) > 1.0) ++count.ok_beyond_1mm;
+    EXPECT_LE(std::abs(error), 1.0) << options << " frame " << i << " of " << rec;
+  }
+}
+
+TEST(GapFill, WiderWindowsPublishMoreSnowFramesAndNoneWrong) {
+  Count with, without;
+  int tag = 0;
+  for (const char* scene : kScenes) {
+    const test::TempDir tmp;
+    const std::string rec = (tmp.path() / "rec").string();
+    ASSERT_EQ(test::run_rutd("synth " + rec + " --frames " + std::to_string(kFrames) + " " + scene), 0);
+    replay_and_count(rec, "", tmp, ++tag, with);
+    replay_and_count(rec, "--gap-fill-window 0", tmp, ++tag, without);
+  }
+  std::printf("OK of %d frames: %d with the gaps read again, %d without\n", with.frames, with.ok, without.ok);
+  const int all = kFrames * static_cast<int>(std::size(kScenes));
+  ASSERT_EQ(with.frames, all);
+  ASSERT_EQ(without.frames, all);
+  EXPECT_EQ(with.ok_beyond_1mm, 0);
+  EXPECT_EQ(without.ok_beyond_1mm, 0);
+  // Measured: 14 of 16 with, 6 without.
+  EXPECT_GE(with.ok, without.ok + 4);
+}
+
+// The option's bounds: wider than the 5 px windows it reads again, up to the DIC's 15 px.
+TEST(GapFill, OptionOutOfRangeIsRefusedByName) {
+  const test::TempDir tmp;
+  const std::string rec = (tmp.path() / "rec").string();
+  ASSERT_EQ(test::run_rutd("synth " + rec + " --frames 1"), 0);
+  const std::string err = (tmp.path() / "err.txt").string();
+  for (const char* bad : {"4", "5", "16"}) {
+    const std::string out = (tmp.path() / (std::string("m") + bad + ".csv")).string();
+    EXPECT_NE(test::run_rutd("replay " + rec + " --out " + out + " --gap-fill-window " + bad, err), 0) << bad;
+    EXPECT_NE(test::read_text(err).find("--gap-fill-window"), std::string::npos) << test::read_text(err);
+  }
+  EXPECT_EQ(
+      test::run_rutd("replay " + rec + " --out " + (tmp.path() / "m6.csv").string() + " --gap-fill-window 6", err), 0)
+      << test::read_text(err);
+}
+
+}  // namespace
+}  // namespace rutd
