@@ -219,41 +219,53 @@ TEST(ExtractRut, HoleInALevelBottomHidesNothing) {
 
 // The right part of the bottom and the right wall unseen up to its middle (a steep, low-texture snow
 // wall whose windows DIC rejected): the wall's slope at the gap's edge bounds what the gap could hide by
-// millimetres, so the depth is Uncertain. A second reading that saw the wall (wider windows: its own
-// noise, 0.5 mm deeper all along, on the section's grid but starting 7 bins further left) bounds the
-// gap by what it shows, its offset taken out: Ok, the depth the section's alone, and unseen_depth_mm
-// (what the frame checks judge) unchanged.
-CrossSection wall_gap_section(const RutShape& s, const View& v) {
-  CrossSection c = make_section(s, v, kX0, kBins, 1.0, 0.2, 5);
-  for (int x = 30; x < 75; ++x) c.z_mm[x - int(kX0)] = kNaN;
-  return c;
-}
-
-CrossSection wider_reading(const RutShape& s, const View& v) {
-  CrossSection fill = make_section(s, v, kX0 - 7.0, kBins + 7, 1.0, 0.3, 11);
-  for (double& z : fill.z_mm) z += 0.5;
-  return fill;
-}
-
-TEST(ExtractRut, GapSeenByAWiderReadingIsBoundedByIt) {
+// millimetres, so alone the depth is Uncertain. wider_reading(): a second reading that saw the wall
+// (wider windows: its own noise, 0.5 mm deeper all along, on the section's grid but starting 7 bins
+// further left).
+struct WallGap {
   RutShape s;
-  s.depth = 45.0;
-  const View v;
-  const CrossSection c = wall_gap_section(s, v);
+  View v;
+  CrossSection c;
   RutWorkspace ws;
-  const RutMeasurement alone = extract_rut(c, RutConfig{}, ws);
-  ASSERT_EQ(alone.status, RutStatus::Uncertain) << to_string(alone.status);
-  const double unseen = ws.geometry.unseen_depth_mm;
-  ASSERT_GT(unseen, 1.0);
-  EXPECT_DOUBLE_EQ(ws.geometry.unseen_bound_mm, unseen);
+  RutMeasurement alone;  // the section measured without a second reading
+  double unseen = 0.0;   // ... and its unseen_depth_mm
+  WallGap() {
+    s.depth = 45.0;
+    c = make_section(s, v, kX0, kBins, 1.0, 0.2, 5);
+    for (int x = 30; x < 75; ++x) c.z_mm[x - int(kX0)] = kNaN;
+    alone = extract_rut(c, RutConfig{}, ws);
+    unseen = ws.geometry.unseen_depth_mm;
+  }
+  CrossSection wider_reading() const {
+    CrossSection fill = make_section(s, v, kX0 - 7.0, kBins + 7, 1.0, 0.3, 11);
+    for (double& z : fill.z_mm) z += 0.5;
+    return fill;
+  }
+};
 
-  const CrossSection fill = wider_reading(s, v);
-  const RutMeasurement m = extract_rut(c, RutConfig{}, ws, &fill);
+// fill's bins with X outside [from, to) (keep_inside) or inside it set to NaN.
+void blank(CrossSection& fill, double from, double to, bool keep_inside) {
+  for (int i = 0; i < int(fill.z_mm.size()); ++i) {
+    const double x = fill.x0_mm + i * fill.dx_mm;
+    if ((x >= from && x < to) != keep_inside) fill.z_mm[i] = kNaN;
+  }
+}
+
+// The second reading bounds the gap by what it shows, its offset taken out: Ok, the depth the section's
+// alone, and unseen_depth_mm (what the frame checks judge) unchanged.
+TEST(ExtractRut, GapSeenByAWiderReadingIsBoundedByIt) {
+  WallGap g;
+  ASSERT_EQ(g.alone.status, RutStatus::Uncertain) << to_string(g.alone.status);
+  ASSERT_GT(g.unseen, 1.0);
+  EXPECT_DOUBLE_EQ(g.ws.geometry.unseen_bound_mm, g.unseen);
+
+  const CrossSection fill = g.wider_reading();
+  const RutMeasurement m = extract_rut(g.c, RutConfig{}, g.ws, &fill);
   ASSERT_EQ(m.status, RutStatus::Ok) << to_string(m.status);
-  EXPECT_DOUBLE_EQ(m.depth_mm, alone.depth_mm);
-  EXPECT_NEAR(m.depth_mm, s.depth, 0.3);
-  EXPECT_DOUBLE_EQ(ws.geometry.unseen_depth_mm, unseen);
-  EXPECT_LT(ws.geometry.unseen_bound_mm, 0.6);
+  EXPECT_DOUBLE_EQ(m.depth_mm, g.alone.depth_mm);
+  EXPECT_NEAR(m.depth_mm, g.s.depth, 0.3);
+  EXPECT_DOUBLE_EQ(g.ws.geometry.unseen_depth_mm, g.unseen);
+  EXPECT_LT(g.ws.geometry.unseen_bound_mm, 0.6);
   EXPECT_LE(m.depth_uncertainty_mm, RutConfig{}.max_depth_uncertainty_mm);
 }
 
@@ -261,52 +273,34 @@ TEST(ExtractRut, GapSeenByAWiderReadingIsBoundedByIt) {
 // (hidden from the section): the bound is what it shows (smoothed over the fit window, as the section
 // is), and the depth stays Uncertain.
 TEST(ExtractRut, WiderReadingThatSeesDeeperRaisesTheBound) {
-  RutShape s;
-  s.depth = 45.0;
-  const View v;
-  const CrossSection c = wall_gap_section(s, v);
-  CrossSection fill = wider_reading(s, v);
-  const double x0 = fill.x0_mm;
+  WallGap g;
+  CrossSection fill = g.wider_reading();
   for (int i = 0; i < int(fill.z_mm.size()); ++i) {
-    const double x = x0 + i;
+    const double x = fill.x0_mm + i;
     if (x >= 36.0 && x < 66.0)
       fill.z_mm[i] += 4.0 * std::sin((x - 36.0) / 30.0 * 3.14159265358979);  // Z: away from the camera
   }
-  RutWorkspace ws;
-  const RutMeasurement m = extract_rut(c, RutConfig{}, ws, &fill);
+  const RutMeasurement m = extract_rut(g.c, RutConfig{}, g.ws, &fill);
   EXPECT_EQ(m.status, RutStatus::Uncertain) << to_string(m.status);
-  EXPECT_GT(m.depth_mm + ws.geometry.unseen_bound_mm, s.depth + 3.0);
-  EXPECT_LT(m.depth_mm + ws.geometry.unseen_bound_mm, s.depth + 5.5);
+  EXPECT_GT(m.depth_mm + g.ws.geometry.unseen_bound_mm, g.s.depth + 3.0);
+  EXPECT_LT(m.depth_mm + g.ws.geometry.unseen_bound_mm, g.s.depth + 5.5);
 }
 
 // A second reading that leaves most of the gap unseen too, or that disagrees with the section nowhere
 // it could be compared (fewer than 16 bins in common), changes nothing.
 TEST(ExtractRut, WiderReadingThatMissesTheGapChangesNothing) {
-  RutShape s;
-  s.depth = 45.0;
-  const View v;
-  const CrossSection c = wall_gap_section(s, v);
-  RutWorkspace ws;
-  const RutMeasurement alone = extract_rut(c, RutConfig{}, ws);
-  const double unseen = ws.geometry.unseen_depth_mm;
+  WallGap g;
+  CrossSection partial = g.wider_reading();
+  blank(partial, 35.0, 65.0, false);
+  RutMeasurement m = extract_rut(g.c, RutConfig{}, g.ws, &partial);
+  EXPECT_EQ(m.status, g.alone.status);
+  EXPECT_DOUBLE_EQ(g.ws.geometry.unseen_bound_mm, g.unseen);
 
-  CrossSection partial = wider_reading(s, v);
-  for (int i = 0; i < int(partial.z_mm.size()); ++i) {
-    const double x = partial.x0_mm + i;
-    if (x >= 35.0 && x < 65.0) partial.z_mm[i] = kNaN;
-  }
-  RutMeasurement m = extract_rut(c, RutConfig{}, ws, &partial);
-  EXPECT_EQ(m.status, alone.status);
-  EXPECT_DOUBLE_EQ(ws.geometry.unseen_bound_mm, unseen);
-
-  CrossSection gap_only = wider_reading(s, v);
-  for (int i = 0; i < int(gap_only.z_mm.size()); ++i) {
-    const double x = gap_only.x0_mm + i;
-    if (x < 20.0 || x >= 75.0) gap_only.z_mm[i] = kNaN;
-  }
-  m = extract_rut(c, RutConfig{}, ws, &gap_only);
-  EXPECT_EQ(m.status, alone.status);
-  EXPECT_DOUBLE_EQ(ws.geometry.unseen_bound_mm, unseen);
+  CrossSection gap_only = g.wider_reading();
+  blank(gap_only, 20.0, 75.0, true);
+  m = extract_rut(g.c, RutConfig{}, g.ws, &gap_only);
+  EXPECT_EQ(m.status, g.alone.status);
+  EXPECT_DOUBLE_EQ(g.ws.geometry.unseen_bound_mm, g.unseen);
 }
 
 // A flat bottom whose last samples before a gap curve away (a DIC window straddling the bottom's
