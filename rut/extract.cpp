@@ -332,7 +332,7 @@ double unseen_excess(const std::vector<double>& h_fit, const std::vector<double>
 // The gap bound of unseen_excess where a second reading of the strip (wider matching windows) covers
 // the gaps: h_fill are its smoothed heights above the line on the section's grid, offset to the
 // section's (fill_heights; NaN where it has none), tol the scatter of their difference to the section's.
-// A gap it covers but for runs shorter than reach_bins (which its smoothing bridges) is bounded by the
+// A gap it covers but for runs of at most reach_bins (which its smoothing bridges) is bounded by the
 // deepest of its bins there, plus tol; one it does not cover keeps the walls' bound. Returns the excess
 // over `depth`, mm (>= 0).
 double unseen_excess_filled(const std::vector<double>& h_fit, const std::vector<double>& slope, double m, const Grid& g,

@@ -113,7 +113,7 @@ void reduce_to_cross_section(const cv::Mat& xyz, const RutConfig& params, CrossS
 // Wider windows see into low-texture, steep patches (snow walls) that the section's own windows leave
 // as gaps, at less lateral resolution. gap_fill is smoothed as the section is and offset onto it (the
 // median difference of the two smoothed profiles over the bins both measured, at least 16); a gap it
-// covers (no run of missing bins as long as half the fit window) is bounded by its deepest smoothed
+// covers (no run of missing bins longer than half the fit window) is bounded by its deepest smoothed
 // bin there plus the scatter of that difference (1.4826 MAD) instead of by the walls' slopes
 // (RutGeometry::unseen_bound_mm). The depth itself and unseen_depth_mm (what the section's own bins
 // leave unseen, which the frame checks judge) are the section's alone.
