@@ -287,12 +287,7 @@ void read_measurement(Section s, MeasurerConfig& m) {
           })
       .get<bool>("dic", m.dic)
       .get<int>("gap_fill_half_window", m.gap_fill_half_window,
-                [&](const int& v) {
-                  const int narrow = m.dic_config.half_window;
-                  return v == 0 || (v > narrow && v <= 15)
-                             ? std::string()
-                             : "expected 0 (off) or " + std::to_string(narrow + 1) + "..15, got " + std::to_string(v);
-                })
+                [&](const int& v) { return gap_fill_window_problem(v, m.dic_config.half_window); })
       .get<std::string>("gpu_device", m.engine_config.gpu_device)
       .get<int>("sgm_paths", m.engine_config.sgm_paths,
                 [](const int& v) {

@@ -55,9 +55,9 @@ MeasurerConfig resolve_measure_options(const MeasureOptions& o) {
   c.engine = *parse_engine(o.engine);  // IsMember above guarantees a known name
   c.dic = !o.no_dic;
   if (c.range.near_mm >= c.range.far_mm) throw CLI::ValidationError("--near-mm", "must be smaller than --far-mm");
-  if (c.gap_fill_half_window != 0 && c.gap_fill_half_window <= c.dic_config.half_window)
-    throw CLI::ValidationError("--gap-fill-window", "must be 0 (off) or wider than the DIC's " +
-                                                        std::to_string(c.dic_config.half_window) + " px, up to 15");
+  if (const std::string problem = gap_fill_window_problem(c.gap_fill_half_window, c.dic_config.half_window);
+      !problem.empty())
+    throw CLI::ValidationError("--gap-fill-window", problem);
   if (c.rut.min_rut_width_mm >= c.rut.max_rut_width_mm)
     throw CLI::ValidationError("--min-width-mm", "must be smaller than --max-width-mm");
   c.strip.rows = o.strip_rows;

@@ -80,11 +80,9 @@ StereoMeasurer::StereoMeasurer(const StereoCalibration& calibration, const Measu
   // measure()'s engine is made on its first call: the real-time pipeline and replay make their own, and a
   // GPU engine made here too would open the device twice. Bad parameters still throw here.
   check_engine(config_.engine, config_.engine_config);
-  const int gap_window = config_.gap_fill_half_window;
-  if (gap_window != 0 && (gap_window <= config_.dic_config.half_window || gap_window > 15))
-    throw std::invalid_argument("gap_fill_half_window must be 0 (off) or wider than the DIC's half window (" +
-                                std::to_string(config_.dic_config.half_window) + " px) up to 15 px, got " +
-                                std::to_string(gap_window));
+  if (const std::string problem = gap_fill_window_problem(config_.gap_fill_half_window, config_.dic_config.half_window);
+      !problem.empty())
+    throw std::invalid_argument("gap_fill_half_window: " + problem);
   if (config_.water.enabled && config_.strip.guards > 0) {
     if (config_.strip.guards > 2 || !(config_.strip.guard_spacing > 0.0 && config_.strip.guard_spacing <= 0.5) ||
         !(config_.strip.guard_after_water_s >= 0.0))
@@ -728,6 +726,11 @@ void StereoMeasurer::weigh_candidate_waterline(FrameWork& w, RutWorkspace& works
   m.conditions |= kConditionWater | kConditionUncertain;
   m.quality = depth_quality(u, limit);
   mark_water(workspace.geometry, line.level_mm, line.left_x_mm, line.right_x_mm);
+}
+
+std::string gap_fill_window_problem(int half_window, int narrow_half_window) {
+  if (half_window == 0 || (half_window > narrow_half_window && half_window <= 15)) return {};
+  return "expected 0 (off) or " + std::to_string(narrow_half_window + 1) + "..15, got " + std::to_string(half_window);
 }
 
 namespace {

@@ -11,6 +11,7 @@
 #include <memory>
 #include <optional>
 #include <span>
+#include <string>
 #include <utility>
 #include <vector>
 
@@ -103,6 +104,11 @@ struct MeasurerConfig {
   // bottom read through clear water by refraction, a lid or opaque water refused (rut/waterline.hpp).
   WaterlineConfig water;
 };
+
+// Empty when `half_window` is a valid MeasurerConfig::gap_fill_half_window beside the first reading's
+// `narrow_half_window` (0, or wider than it up to the DIC's 15 px); else what is expected and what was got.
+// The one rule for the configuration file, the command line and the measurer's constructor.
+std::string gap_fill_window_problem(int half_window, int narrow_half_window);
 
 // Figures of one frame's measurement, for logs and benchmarks. Milliseconds of thread time per stage.
 struct MeasurementDiagnostics {
