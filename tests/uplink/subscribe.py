@@ -10,6 +10,7 @@ Usage: subscribe.py HOST PORT CA_FILE USER PASSWORD TOPIC OUT [CLIENT_ID]
 import json
 import signal
 import sys
+import time
 
 import paho.mqtt.client as mqtt
 
@@ -21,10 +22,25 @@ def main(host, port, ca, user, password, topic, out_path, client_id="fleet-test"
     client.tls_set(ca_certs=ca)
     client.reconnect_delay_set(min_delay=1, max_delay=2)
 
+    # Each connection event with its time and what the broker said (the session it kept, the QoS it
+    # granted): a test that finds too few messages prints this log, and it tells whether this side came
+    # back after an outage and found its session.
+    def log(text):
+        print(f"{time.time():.3f} {text}", file=sys.stderr, flush=True)
+
     def on_connect(c, userdata, flags, rc):
         if rc == 0:
             c.subscribe(topic, qos=1)
-        print(f"connected rc={rc}", file=sys.stderr, flush=True)
+        log(f"connected rc={rc} session_present={flags.get('session present', '?')}")
+
+    def on_subscribe(c, userdata, mid, granted_qos):
+        log(f"subscribed mid={mid} granted_qos={list(granted_qos)}")
+
+    def on_disconnect(c, userdata, rc):
+        log(f"disconnected rc={rc}")
+
+    def on_connect_fail(c, userdata):
+        log("connection failed")
 
     def on_message(c, userdata, msg):
         text = msg.payload.decode("utf-8", "replace")
@@ -36,6 +52,9 @@ def main(host, port, ca, user, password, topic, out_path, client_id="fleet-test"
 
     client.on_connect = on_connect
     client.on_message = on_message
+    client.on_subscribe = on_subscribe
+    client.on_disconnect = on_disconnect
+    client.on_connect_fail = on_connect_fail
     signal.signal(signal.SIGTERM, lambda *a: client.disconnect())
     client.connect_async(host, int(port), keepalive=10)
     client.loop_forever(retry_first_connection=True)
