@@ -20,34 +20,60 @@ import time
 CHROMIUM = "/usr/bin/chromium"
 
 
-def chromium_once(url, extra, profile, timeout_s):
-    """One headless Chromium run; None when it had not exited after timeout_s (it and its children killed)."""
+def chromium_once(url, extra, profile, ready, timeout_s):
+    """One headless Chromium run, its output and errors sent to files in profile. Polls ready() (did the run
+    leave what was asked for?) until it holds or timeout_s pass, then kills Chromium's whole process group.
+    Waiting on the process itself would not do: on CI (2 cores, the suite beside it) a screenshot run
+    did not end within 60 s twice, and a run may also write its file and then hang at exit. Returns (ready,
+    exit code or None, the end of its errors)."""
     # --no-sandbox: tests run as root here; --virtual-time-budget: the page's timers (its polling) run
     # for that long, network waits not counted, before the DOM is dumped.
     args = [CHROMIUM, "--headless", "--no-sandbox", "--disable-gpu", "--no-first-run", "--hide-scrollbars",
             "--user-data-dir=" + profile, "--window-size=1400,1500", "--virtual-time-budget=3000"] + extra + [url]
-    with subprocess.Popen(args, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                          start_new_session=True) as p:
-        try:
-            out, err = p.communicate(timeout=timeout_s)
-        except subprocess.TimeoutExpired:
-            os.killpg(p.pid, signal.SIGKILL)
-            p.communicate()
-            return None
-    return subprocess.CompletedProcess(args, p.returncode, out, err)
-
-
-def chromium(url, extra, profile, done):
-    """Headless Chromium until done(run) holds, at most twice. Under --virtual-time-budget Chromium now and
-    then never exits, before or after writing its output (a known headless Chromium behaviour, more often on
-    a loaded machine: once in a sanitizer run here); a run that hangs is killed and the page loaded once more,
-    in a fresh profile (the killed one may still be locked). Returns the last run (None: it hung)."""
-    run = None
-    for _ in range(2):
-        run = chromium_once(url, extra, tempfile.mkdtemp(dir=profile), 60)
-        if done(run):
+    out_path, err_path = os.path.join(profile, "stdout"), os.path.join(profile, "stderr")
+    with open(out_path, "w") as out, open(err_path, "w") as err:
+        p = subprocess.Popen(args, stdout=out, stderr=err, start_new_session=True)
+    deadline = time.monotonic() + timeout_s
+    ok = False
+    while time.monotonic() < deadline:
+        ok = ready(out_path)
+        if ok:
             break
-    return run
+        if p.poll() is not None:  # ended without it: a last look once its output is flushed
+            deadline = min(deadline, time.monotonic() + 1.0)
+        time.sleep(0.2)
+    rc = p.poll()
+    try:
+        os.killpg(p.pid, signal.SIGKILL)
+    except ProcessLookupError:
+        pass
+    p.wait()
+    with open(err_path, errors="replace") as f:  # less the D-Bus complaints of a machine without a session bus
+        err_tail = "".join(line for line in f if "dbus/" not in line)[-2000:]
+    return ok, rc, err_tail
+
+
+def chromium(url, extra, profile, ready, timeout_s=120):
+    """Headless Chromium until ready(stdout path) holds, at most twice, each run in a fresh profile (a
+    killed one may still be locked). Under --virtual-time-budget Chromium now and then never finishes, more
+    often on a loaded machine. Returns (ready, a line saying how the last run ended)."""
+    why = ""
+    for _ in range(2):
+        ok, rc, err = chromium_once(url, extra, tempfile.mkdtemp(dir=profile), ready, timeout_s)
+        if ok:
+            return True, ""
+        why = (("still running after %d s" % timeout_s if rc is None else "ended (exit %d) without it" % rc) +
+               ": " + err.replace("\n", " | ")[-1500:])
+    return False, why
+
+
+def dom_dumped(out_path):
+    """The whole document on standard output: Chromium writes it at once, ending with </html>."""
+    try:
+        with open(out_path, errors="replace") as f:
+            return f.read().rstrip().endswith("</html>")
+    except OSError:
+        return False
 
 
 def is_png(path):
@@ -91,13 +117,20 @@ class Dom(html.parser.HTMLParser):
 
 
 def load(url, profile):
-    run = chromium(url, ["--dump-dom"], profile, lambda r: r is not None and r.returncode == 0 and "<html" in r.stdout)
-    if run is None:
-        sys.exit("chromium did not exit within 60 s, twice")
-    if run.returncode != 0 or "<html" not in run.stdout:
-        sys.exit("chromium failed (%d): %s" % (run.returncode, run.stderr[-2000:]))
+    dumped = []
+
+    def ready(out_path):
+        if not dom_dumped(out_path):
+            return False
+        with open(out_path, errors="replace") as f:
+            dumped.append(f.read())
+        return True
+
+    ok, why = chromium(url, ["--dump-dom"], profile, ready)
+    if not ok:
+        sys.exit("chromium --dump-dom failed twice: " + why)
     dom = Dom()
-    dom.feed(run.stdout)
+    dom.feed(dumped[-1])
     ids = dom.by_id
 
     def text(i):
@@ -123,26 +156,30 @@ def load(url, profile):
     return out
 
 
-def main():
-    url, report = sys.argv[1], sys.argv[2]
-    with tempfile.TemporaryDirectory() as profile:
-        first = load(url, profile)
-        time.sleep(1.0)
-        second = load(url, profile)
-        if len(sys.argv) > 3:
-            path = os.path.abspath(sys.argv[3])
-            # The file decides: Chromium may hang at exit after writing it.
-            shot = chromium(url, ["--screenshot=" + path], profile, lambda r: is_png(path))
-            if not is_png(path):
-                sys.exit("chromium screenshot failed: " + ("no exit within 60 s, twice" if shot is None
-                                                           else shot.stderr[-2000:]))
-    # One line, flat, every value a string: "first_seq": "55", "second_conditions_set": "Water,LowLight".
+def write_report(report, first, second):
+    """One line, flat, every value a string: "first_seq": "55", "second_conditions_set": "Water,LowLight"."""
     flat = {}
     for name, load_ in (("first", first), ("second", second)):
         for key, value in load_.items():
             flat[name + "_" + key.replace("-", "_")] = ",".join(value) if isinstance(value, list) else str(value)
     with open(report, "w") as f:
         f.write(json.dumps(flat) + "\n")
+
+
+def main():
+    url, report = sys.argv[1], sys.argv[2]
+    with tempfile.TemporaryDirectory() as profile:
+        first = load(url, profile)
+        time.sleep(1.0)
+        second = load(url, profile)
+        # Written before the screenshot, so that a failed screenshot does not hide what the page showed.
+        write_report(report, first, second)
+        if len(sys.argv) > 3:
+            path = os.path.abspath(sys.argv[3])
+            # The file decides: Chromium may hang at exit after writing it, or exit before it lands.
+            ok, why = chromium(url, ["--screenshot=" + path], profile, lambda _: is_png(path))
+            if not ok:
+                sys.exit("chromium --screenshot failed twice: " + why)
 
 
 if __name__ == "__main__":
