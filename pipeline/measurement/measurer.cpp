@@ -175,6 +175,53 @@ void StereoMeasurer::check_guards(FrameWork& w, RutWorkspace& workspace) const {
   }
 }
 
+void StereoMeasurer::read_strips_together(FrameWork& w, const RutWorkspace& workspace) const {
+  RutMeasurement& m = w.measurement;
+  const double limit = config_.rut.max_depth_uncertainty_mm;
+  // Only a depth Uncertain and nothing else (no condition but DepthUncertain), and away from water: where
+  // the guards are asked for water (guards_asked), check_guards measures them, and a lid's memory must not
+  // see one frame twice.
+  if (!guards_ || m.status != RutStatus::Uncertain || m.conditions != kConditionUncertain ||
+      !std::isfinite(m.depth_uncertainty_mm) || !(m.depth_uncertainty_mm > 0.0) ||
+      guards_asked(workspace, w.frame.t_ns))
+    return;
+  std::array<std::pair<double, double>, 3> depths;
+  std::size_t n = 0;
+  depths[n++] = {m.depth_mm, m.depth_uncertainty_mm};
+  {
+    const std::lock_guard lock(guards_->mutex);
+    for (StereoMeasurer& guard : guards_->strips) {
+      const RutMeasurement g = guard.measure(w.frame.left, w.frame.right, w.frame.skew_ns, w.frame.t_ns);
+      ++w.diag.guard_strips;
+      const bool clean = g.conditions == 0 || g.conditions == kConditionUncertain;
+      if ((g.status == RutStatus::Ok || g.status == RutStatus::Uncertain) && clean &&
+          std::isfinite(g.depth_uncertainty_mm) && g.depth_uncertainty_mm > 0.0 && n < depths.size())
+        depths[n++] = {g.depth_mm, g.depth_uncertainty_mm};
+    }
+  }
+  if (n < 3) return;
+  for (std::size_t i = 0; i < n; ++i)
+    if (depths[i].second > 3.0 * limit) return;
+  double sw = 0.0, swd = 0.0;
+  for (std::size_t i = 0; i < n; ++i) {
+    const double wt = 1.0 / (depths[i].second * depths[i].second);
+    sw += wt;
+    swd += wt * depths[i].first;
+  }
+  const double mean = swd / sw, u = 1.0 / std::sqrt(sw);
+  double chi2 = 0.0;
+  for (std::size_t i = 0; i < n; ++i) chi2 += std::pow((depths[i].first - mean) / depths[i].second, 2);
+  // The strips agree as their uncertainties say (chi-square of 2 degrees of freedom under its 95th
+  // percentile), and together they are precise enough.
+  if (!(chi2 <= 5.99) || !(u <= limit)) return;
+  m.depth_mm = mean;
+  m.depth_uncertainty_mm = u;
+  m.status = RutStatus::Ok;
+  m.conditions = 0;
+  m.quality = depth_quality(u, limit);
+  w.diag.strips_together = true;
+}
+
 MatchContext StereoMeasurer::make_match_context() const {
   MatchContext context;
   context.engine = make_engine(config_.engine, config_.engine_config);
@@ -812,6 +859,7 @@ void StereoMeasurer::extract(FrameWork& w, RutWorkspace& workspace) const {
   }
   check_frame(w.left_strip, w.right_strip, w.disparity, first, first + strip_.rows, geometry_, workspace.geometry,
               w.diag.band, w.frame.skew_ns, signal, config_.conditions, w.checks, w.measurement);
+  read_strips_together(w, workspace);
   check_guards(w, workspace);
   w.geometry = workspace.geometry;
   w.measured = true;

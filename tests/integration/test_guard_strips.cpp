@@ -3,7 +3,8 @@
 // one of them finds water the strip did not. Where they lie; that they refuse a floating lid the strip
 // took for the rut's bottom (against the renderer's truth); that they leave clean ruts alone; and that by
 // default they are asked only within guard_after_water_s of a frame flagged Water, so that dry ground
-// costs nothing, while a lid the strip misses between frames that saw its water is still refused.
+// costs nothing, while a lid the strip misses between frames that saw its water is still refused. A depth
+// UNCERTAIN for its noise alone is read on the three strips together where they agree.
 #include <cmath>
 #include <cstdio>
 #include <stdexcept>
@@ -206,6 +207,88 @@ TEST(GuardStrips, AskedWithinGuardAfterWaterOfAFrameFlaggedWater) {
   EXPECT_EQ(checked, 8);
   EXPECT_GE(wrong_alone, 1) << "no frame the strip alone publishes OK off the truth: the scene tests nothing";
   EXPECT_EQ(refused, wrong_alone);
+}
+
+// Low-texture snow (the scene matrix's clean-manual-snow-34: texture about the sensor's noise): the strip
+// alone leaves several depths UNCERTAIN for their noise. With the defaults such a frame is measured on the
+// guard strips too, and where the three depths agree as their uncertainties say, their weighted mean is
+// published OK with their combined uncertainty. Against the renderer's truth: every depth published OK is
+// within 1 mm, frames read together are within the limit, and at least three frames gain a depth.
+TEST(GuardStrips, ANoisyDepthIsReadOnTheThreeStripsTogether) {
+  const SyntheticRenderer renderer(
+      scene("--texture snow --depth 33.5 --width 159 --bottom-width 48 --pile-left 0.0 --pile-right 5.8 --offset -13 "
+            "--baseline 43 --height 495 --hfov 90 --roll -0.8 --pitch -4.4 --noise 1.05 --speed 1494 "
+            "--right-response 0.974 --seed 2034 --exposure 0.71"));
+  MeasurerConfig alone_config;
+  alone_config.strip.guards = 0;
+  StereoMeasurer alone(renderer.calibration(), alone_config);
+  StereoMeasurer by_default(renderer.calibration(), MeasurerConfig{});
+  const double limit = MeasurerConfig{}.rut.max_depth_uncertainty_mm;
+  int together = 0, checked = 0;
+  for (std::uint64_t i = 0; i < 8; ++i) {
+    StereoFrame frame;
+    renderer.render(i, frame);
+    const double truth = renderer.truth(i).depth_mm;
+    const RutMeasurement a = alone.measure(frame.left, frame.right, frame.skew_ns, frame.t_ns);
+    const RutMeasurement d = by_default.measure(frame.left, frame.right, frame.skew_ns, frame.t_ns);
+    ++checked;
+    std::printf(
+        "frame %llu: strip alone %s %.2f mm (u %.2f), by default %s %.2f mm (u %.2f, together %d), truth %.2f\n",
+        static_cast<unsigned long long>(i), std::string(to_string(a.status)).c_str(), a.depth_mm,
+        a.depth_uncertainty_mm, std::string(to_string(d.status)).c_str(), d.depth_mm, d.depth_uncertainty_mm,
+        by_default.diagnostics().strips_together ? 1 : 0, truth);
+    if (d.status == RutStatus::Ok) {
+      EXPECT_LE(std::abs(d.depth_mm - truth), 1.0) << "frame " << i;
+    }
+    if (!by_default.diagnostics().strips_together) {
+      // Not read together: the strip's own reading, whatever it was.
+      EXPECT_EQ(d.status, a.status) << "frame " << i;
+      EXPECT_DOUBLE_EQ(d.depth_mm, a.depth_mm) << "frame " << i;
+      continue;
+    }
+    ++together;
+    EXPECT_EQ(a.status, RutStatus::Uncertain) << "frame " << i;
+    EXPECT_EQ(d.status, RutStatus::Ok) << "frame " << i;
+    EXPECT_EQ(d.conditions, 0U) << "frame " << i;
+    EXPECT_EQ(by_default.diagnostics().guard_strips, 2) << "frame " << i;
+    EXPECT_LE(d.depth_uncertainty_mm, limit) << "frame " << i;
+    EXPECT_LT(d.depth_uncertainty_mm, a.depth_uncertainty_mm) << "frame " << i;
+  }
+  EXPECT_EQ(checked, 8);
+  EXPECT_GE(together, 3) << "the scene no longer tests reading the strips together";
+}
+
+// Dust on both lenses over low-texture snow (the scene matrix's lens-dust-both-snow): on some frames the
+// strip's depth is UNCERTAIN and 1.5-2 mm off the truth while the guard strips read it elsewhere. Strips
+// that disagree beyond their uncertainties are not read together: no such frame is published OK off the
+// truth, and at least one UNCERTAIN frame off the truth is left so (else the scene tests nothing).
+TEST(GuardStrips, StripsThatDisagreeAreNotReadTogether) {
+  const SyntheticRenderer renderer(
+      scene("--texture snow --depth 32.2 --width 218 --bottom-width 67 --pile-left 11.9 --pile-right 6.7 --baseline 66 "
+            "--height 376 --roll -1.9 --seed 1114 --lens dust:both:0.60"));
+  MeasurerConfig alone_config;
+  alone_config.strip.guards = 0;
+  StereoMeasurer alone(renderer.calibration(), alone_config);
+  StereoMeasurer by_default(renderer.calibration(), MeasurerConfig{});
+  int off_and_uncertain = 0, checked = 0;
+  for (std::uint64_t i = 0; i < 4; ++i) {
+    StereoFrame frame;
+    renderer.render(i, frame);
+    const double truth = renderer.truth(i).depth_mm;
+    const RutMeasurement a = alone.measure(frame.left, frame.right, frame.skew_ns, frame.t_ns);
+    const RutMeasurement d = by_default.measure(frame.left, frame.right, frame.skew_ns, frame.t_ns);
+    ++checked;
+    if (d.status == RutStatus::Ok) {
+      EXPECT_LE(std::abs(d.depth_mm - truth), 1.0) << "frame " << i;
+    }
+    if (a.status == RutStatus::Uncertain && std::abs(a.depth_mm - truth) > 1.0) {
+      ++off_and_uncertain;
+      EXPECT_EQ(d.status, RutStatus::Uncertain) << "frame " << i;
+      EXPECT_FALSE(by_default.diagnostics().strips_together) << "frame " << i;
+    }
+  }
+  EXPECT_EQ(checked, 4);
+  EXPECT_GE(off_and_uncertain, 1) << "no UNCERTAIN frame off the truth: the scene tests nothing";
 }
 
 }  // namespace

@@ -125,6 +125,7 @@ struct MeasurementDiagnostics {
   int guard_strips = 0;         // guard strips measured (StripConfig::guards), in rut_ms
   bool guard_water = false;     // ... and one of them refused the frame
   bool gaps_read = false;  // the gaps were read with wider windows (MeasurerConfig::gap_fill_half_window), in rut_ms
+  bool strips_together = false;  // an Uncertain depth published from the strip and its guards (read_strips_together)
 };
 
 // Everything one pair needs on its way through the stages. Frame pools hold these; every buffer is
@@ -230,6 +231,13 @@ class StereoMeasurer {
   // An OK frame measured again on the guard strips (StripConfig::guards) where guards_asked() says so, and
   // refused where one finds water; the frames flagged Water are remembered in `workspace`.
   void check_guards(FrameWork& w, RutWorkspace& workspace) const;
+  // A depth Uncertain for its noise alone (low texture against the sensor's noise: snow, dim light under
+  // auto gain), away from water, measured again on the guard strips: where the three depths agree as their
+  // uncertainties say (chi-square under 5.99, 2 degrees of freedom), each within 3 times
+  // RutConfig::max_depth_uncertainty_mm, and their combined uncertainty is within it, their weighted mean
+  // (1/u^2) is published OK with that uncertainty. The section and geometry stay the strip's. The rut is
+  // one along the half of the image they span; strips that disagree leave it Uncertain.
+  void read_strips_together(FrameWork& w, const RutWorkspace& workspace) const;
   // Whether one of `depths` (depth, standard uncertainty, mm: the strip's and its guards' OK depths)
   // lies at the level of a lid that this strip or a guard found within memory_s and another of them
   // found at the same level (check_guards; the guards' lock held).
