@@ -15,10 +15,13 @@
 
 #include "daemon/scene_options.hpp"
 #include "measurement/measurer.hpp"
+#include "measurer_configs.hpp"
 #include "synthetic/synthetic_renderer.hpp"
 
 namespace rutd {
 namespace {
+
+using test::strip_alone;
 
 SyntheticRendererConfig scene(const std::string& line) { return parse_scene_line(line); }
 
@@ -31,6 +34,26 @@ MeasurerConfig guarded() {
 }
 
 bool same(const StripRoi& a, const StripRoi& b) { return a.row0 == b.row0 && a.rows == b.rows; }
+
+// Frame i of `renderer` at its capture time, measured by `alone` (the strip alone) and by `guarded`;
+// a depth `guarded` publishes OK must lie within 1 mm of the truth (never a wrong depth published OK).
+struct BothReadings {
+  StereoFrame frame;
+  RutMeasurement alone, guarded;
+  double truth = 0.0;
+};
+BothReadings measure_both(const SyntheticRenderer& renderer, std::uint64_t i, StereoMeasurer& alone,
+                          StereoMeasurer& guarded) {
+  BothReadings b;
+  renderer.render(i, b.frame);
+  b.truth = renderer.truth(i).depth_mm;
+  b.alone = alone.measure(b.frame.left, b.frame.right, b.frame.skew_ns, b.frame.t_ns);
+  b.guarded = guarded.measure(b.frame.left, b.frame.right, b.frame.skew_ns, b.frame.t_ns);
+  if (b.guarded.status == RutStatus::Ok) {
+    EXPECT_LE(std::abs(b.guarded.depth_mm - b.truth), 1.0) << "frame " << i;
+  }
+  return b;
+}
 
 TEST(GuardStrips, AQuarterOfTheImageAboveAndBelowTheStripWhereTheyFit) {
   const SyntheticRenderer renderer(SyntheticRendererConfig{});  // 640x480
@@ -165,25 +188,15 @@ TEST(GuardStrips, AskedWithinGuardAfterWaterOfAFrameFlaggedWater) {
       scene("--texture mud --depth 60.7 --width 170 --bottom-width 78 --pile-left 5.9 --pile-right 10.3 "
             "--baseline 41 --height 361 --roll 2.9 --seed 1305 --water-level 29.9 --debris 0.41 --debris-kind litter "
             "--water-attenuation 0.298"));
-  MeasurerConfig alone_config;
-  alone_config.strip.guards = 0;
-  StereoMeasurer alone(renderer.calibration(), alone_config);
+  StereoMeasurer alone(renderer.calibration(), strip_alone());
   StereoMeasurer by_default(renderer.calibration(), MeasurerConfig{});
   StereoMeasurer late(renderer.calibration(), MeasurerConfig{});
   const double window_s = MeasurerConfig{}.strip.guard_after_water_s;
   int wrong_alone = 0, refused = 0, checked = 0;
   bool water_before = false;
   for (std::uint64_t i = 0; i < 8; ++i) {
-    StereoFrame frame;
-    renderer.render(i, frame);
-    const double truth = renderer.truth(i).depth_mm;
-    const RutMeasurement a = alone.measure(frame.left, frame.right, frame.skew_ns, frame.t_ns);
-    const RutMeasurement d = by_default.measure(frame.left, frame.right, frame.skew_ns, frame.t_ns);
+    const auto [frame, a, d, truth] = measure_both(renderer, i, alone, by_default);
     ++checked;
-    // Never a wrong depth published OK by default.
-    if (d.status == RutStatus::Ok) {
-      EXPECT_LE(std::abs(d.depth_mm - truth), 1.0) << "frame " << i;
-    }
     const bool wrong = a.status == RutStatus::Ok && std::abs(a.depth_mm - truth) > 1.0;
     if (wrong) {
       ++wrong_alone;
@@ -219,27 +232,18 @@ TEST(GuardStrips, ANoisyDepthIsReadOnTheThreeStripsTogether) {
       scene("--texture snow --depth 33.5 --width 159 --bottom-width 48 --pile-left 0.0 --pile-right 5.8 --offset -13 "
             "--baseline 43 --height 495 --hfov 90 --roll -0.8 --pitch -4.4 --noise 1.05 --speed 1494 "
             "--right-response 0.974 --seed 2034 --exposure 0.71"));
-  MeasurerConfig alone_config;
-  alone_config.strip.guards = 0;
-  StereoMeasurer alone(renderer.calibration(), alone_config);
+  StereoMeasurer alone(renderer.calibration(), strip_alone());
   StereoMeasurer by_default(renderer.calibration(), MeasurerConfig{});
   const double limit = MeasurerConfig{}.rut.max_depth_uncertainty_mm;
   int together = 0, checked = 0;
   for (std::uint64_t i = 0; i < 8; ++i) {
-    StereoFrame frame;
-    renderer.render(i, frame);
-    const double truth = renderer.truth(i).depth_mm;
-    const RutMeasurement a = alone.measure(frame.left, frame.right, frame.skew_ns, frame.t_ns);
-    const RutMeasurement d = by_default.measure(frame.left, frame.right, frame.skew_ns, frame.t_ns);
+    const auto [frame, a, d, truth] = measure_both(renderer, i, alone, by_default);
     ++checked;
     std::printf(
         "frame %llu: strip alone %s %.2f mm (u %.2f), by default %s %.2f mm (u %.2f, together %d), truth %.2f\n",
         static_cast<unsigned long long>(i), std::string(to_string(a.status)).c_str(), a.depth_mm,
         a.depth_uncertainty_mm, std::string(to_string(d.status)).c_str(), d.depth_mm, d.depth_uncertainty_mm,
         by_default.diagnostics().strips_together ? 1 : 0, truth);
-    if (d.status == RutStatus::Ok) {
-      EXPECT_LE(std::abs(d.depth_mm - truth), 1.0) << "frame " << i;
-    }
     if (!by_default.diagnostics().strips_together) {
       // Not read together: the strip's own reading, whatever it was.
       EXPECT_EQ(d.status, a.status) << "frame " << i;
@@ -266,21 +270,12 @@ TEST(GuardStrips, StripsThatDisagreeAreNotReadTogether) {
   const SyntheticRenderer renderer(
       scene("--texture snow --depth 32.2 --width 218 --bottom-width 67 --pile-left 11.9 --pile-right 6.7 --baseline 66 "
             "--height 376 --roll -1.9 --seed 1114 --lens dust:both:0.60"));
-  MeasurerConfig alone_config;
-  alone_config.strip.guards = 0;
-  StereoMeasurer alone(renderer.calibration(), alone_config);
+  StereoMeasurer alone(renderer.calibration(), strip_alone());
   StereoMeasurer by_default(renderer.calibration(), MeasurerConfig{});
   int off_and_uncertain = 0, checked = 0;
   for (std::uint64_t i = 0; i < 4; ++i) {
-    StereoFrame frame;
-    renderer.render(i, frame);
-    const double truth = renderer.truth(i).depth_mm;
-    const RutMeasurement a = alone.measure(frame.left, frame.right, frame.skew_ns, frame.t_ns);
-    const RutMeasurement d = by_default.measure(frame.left, frame.right, frame.skew_ns, frame.t_ns);
+    const auto [frame, a, d, truth] = measure_both(renderer, i, alone, by_default);
     ++checked;
-    if (d.status == RutStatus::Ok) {
-      EXPECT_LE(std::abs(d.depth_mm - truth), 1.0) << "frame " << i;
-    }
     if (a.status == RutStatus::Uncertain && std::abs(a.depth_mm - truth) > 1.0) {
       ++off_and_uncertain;
       EXPECT_EQ(d.status, RutStatus::Uncertain) << "frame " << i;

@@ -26,22 +26,18 @@
 
 #include "daemon/scene_options.hpp"
 #include "measurement/measurer.hpp"
+#include "measurer_configs.hpp"
 #include "synthetic/synthetic_renderer.hpp"
 
 namespace rutd {
 namespace {
 
+using test::strip_alone;
+
 // The scene matrix's water-clear-mud-01.
 const char* kClearWaterOnMud =
     "--texture mud --depth 23.7 --width 251 --bottom-width 136 --pile-left 8.9 --pile-right 8.6 --baseline 69 "
     "--height 368 --roll -3.8 --seed 1001 --water-level 8.2 --water-attenuation 0.0036 --water-colour 0.10";
-
-// The measured strip's own judgement: no guard strips (StripConfig::guards, tests/integration/test_guard_strips.cpp).
-MeasurerConfig strip_alone() {
-  MeasurerConfig c;
-  c.strip.guards = 0;
-  return c;
-}
 
 struct Measured {
   RutMeasurement m;
