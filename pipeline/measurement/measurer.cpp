@@ -178,9 +178,13 @@ void StereoMeasurer::check_guards(FrameWork& w, RutWorkspace& workspace) const {
 void StereoMeasurer::read_strips_together(FrameWork& w, const RutWorkspace& workspace) const {
   RutMeasurement& m = w.measurement;
   const double limit = config_.rut.max_depth_uncertainty_mm;
+  // Each strip's own uncertainty at most this: a strip far noisier could not contradict the other two.
+  const double most = 3.0 * limit;
+  const auto usable = [most](double u) { return std::isfinite(u) && u > 0.0 && u <= most; };
   // Only a depth Uncertain and nothing else (no condition but DepthUncertain), and away from water: where
   // the guards are asked for water (guards_asked), check_guards measures them, and a lid's memory must not
-  // see one frame twice.
+  // see one frame twice. The guards are measured even when the strip itself is too noisy: each carries
+  // its engine's start and band from the frame before, so the frames they see shape their next readings.
   if (!guards_ || m.status != RutStatus::Uncertain || m.conditions != kConditionUncertain ||
       !std::isfinite(m.depth_uncertainty_mm) || !(m.depth_uncertainty_mm > 0.0) ||
       guards_asked(workspace, w.frame.t_ns))
@@ -194,14 +198,12 @@ void StereoMeasurer::read_strips_together(FrameWork& w, const RutWorkspace& work
       const RutMeasurement g = guard.measure(w.frame.left, w.frame.right, w.frame.skew_ns, w.frame.t_ns);
       ++w.diag.guard_strips;
       const bool clean = g.conditions == 0 || g.conditions == kConditionUncertain;
-      if ((g.status == RutStatus::Ok || g.status == RutStatus::Uncertain) && clean &&
-          std::isfinite(g.depth_uncertainty_mm) && g.depth_uncertainty_mm > 0.0 && n < depths.size())
+      if ((g.status == RutStatus::Ok || g.status == RutStatus::Uncertain) && clean && usable(g.depth_uncertainty_mm) &&
+          n < depths.size())
         depths[n++] = {g.depth_mm, g.depth_uncertainty_mm};
     }
   }
-  if (n < 3) return;
-  for (std::size_t i = 0; i < n; ++i)
-    if (depths[i].second > 3.0 * limit) return;
+  if (n < 3 || !usable(m.depth_uncertainty_mm)) return;
   double sw = 0.0, swd = 0.0;
   for (std::size_t i = 0; i < n; ++i) {
     const double wt = 1.0 / (depths[i].second * depths[i].second);

@@ -67,13 +67,14 @@ def chromium(url, extra, profile, ready, timeout_s=120):
     return False, why
 
 
-def dom_dumped(out_path):
-    """The whole document on standard output: Chromium writes it at once, ending with </html>."""
+def dumped_dom(out_path):
+    """The whole document Chromium wrote to standard output (at once, ending with </html>), else None."""
     try:
         with open(out_path, errors="replace") as f:
-            return f.read().rstrip().endswith("</html>")
+            text = f.read()
     except OSError:
-        return False
+        return None
+    return text if text.rstrip().endswith("</html>") else None
 
 
 def is_png(path):
@@ -120,11 +121,10 @@ def load(url, profile):
     dumped = []
 
     def ready(out_path):
-        if not dom_dumped(out_path):
-            return False
-        with open(out_path, errors="replace") as f:
-            dumped.append(f.read())
-        return True
+        document = dumped_dom(out_path)
+        if document is not None:
+            dumped.append(document)
+        return document is not None
 
     ok, why = chromium(url, ["--dump-dom"], profile, ready)
     if not ok:
