@@ -22,6 +22,7 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <optional>
 #include <regex>
 #include <sstream>
 #include <string>
@@ -72,10 +73,28 @@ long long number_after(const std::string& text, const std::string& label) {
   return std::stoll(text.substr(at + label.size()));
 }
 
-// Runs `rutd_faults FAULT_ARGS run RUN_ARGS` until kRunAfterReady after its first good measurement (at
-// most a minute in all), then SIGTERM. Returns the exit status (-1: did not exit normally, -2: exited
-// before the signal, i.e. it did not keep running).
-int run_for(const std::string& fault_args, const std::string& run_args, const fs::path& err) {
+// The RutMeasurement1 frames (any status) a candump log holds so far: its identifier in config/rutd.dbc
+// (2566869152 = 0x80000000 | 0x18FF50A0). A line still being written is not counted. Used only to decide
+// when a run has measured enough; what the tests assert is decoded by canmatrix.
+int measurement_lines(const fs::path& log) {
+  std::ifstream in(log);
+  int n = 0;
+  for (std::string line; std::getline(in, line);) {
+    if (in.eof()) break;  // no newline yet
+    if (line.find(" 18FF50A0#") != std::string::npos) ++n;
+  }
+  return n;
+}
+
+// Runs `rutd_faults FAULT_ARGS run RUN_ARGS` for kRunAfterReady after its first good measurement, and on
+// until `log` holds `min_after_window` measurement frames sent after the fault window, at most a minute in
+// all, then SIGTERM. A busy machine renders and measures slowly (CI measured 0.9 Hz live rendering beside
+// other tests), so a fixed run length would leave too few measurements after the window to tell that
+// measuring resumed. The window starts at the first camera pop, before the first good measurement, so it
+// has ended by kUntil after "ready" (plus a second for frames still in the pipeline). Returns the exit
+// status (-1: did not exit normally, -2: exited before the signal, i.e. it did not keep running).
+int run_for(const std::string& fault_args, const std::string& run_args, const fs::path& err, const fs::path& log,
+            int min_after_window = 0) {
   const std::string cmd = "exec " + test::quoted(RUTD_FAULTS_BINARY) + " " + fault_args + " run " + run_args +
                           " >/dev/null 2>" + test::quoted(err);
   const pid_t pid = fork();
@@ -83,16 +102,25 @@ int run_for(const std::string& fault_args, const std::string& run_args, const fs
     execl("/bin/sh", "sh", "-c", cmd.c_str(), static_cast<char*>(nullptr));
     _exit(127);
   }
+  using Clock = std::chrono::steady_clock;
+  constexpr auto kPipelineLag = std::chrono::seconds(1);
+  const auto window_s = std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(kUntil));
+  const auto give_up = Clock::now() + std::chrono::seconds(60);
+  std::optional<Clock::time_point> ready;
+  std::optional<int> at_window_end;  // measurement frames logged when the window had surely ended
   int status = 0;
-  const auto t0 = std::chrono::steady_clock::now();
-  auto until = t0 + std::chrono::seconds(60);
-  for (bool ready = false; std::chrono::steady_clock::now() < until;) {
+  while (Clock::now() < give_up) {
     std::this_thread::sleep_for(50ms);
     if (waitpid(pid, &status, WNOHANG) == pid) return -2;
-    if (!ready && test::read_text(err).find("ready: first good measurement") != std::string::npos) {
-      ready = true;
-      until = std::min(until, std::chrono::steady_clock::now() + kRunAfterReady);
+    const auto now = Clock::now();
+    if (!ready) {
+      if (test::read_text(err).find("ready: first good measurement") != std::string::npos) ready = now;
+      continue;
     }
+    if (!at_window_end && now >= *ready + window_s + kPipelineLag) at_window_end = measurement_lines(log);
+    if (now < *ready + kRunAfterReady || !at_window_end) continue;
+    if (min_after_window <= 0 || measurement_lines(log) - *at_window_end >= min_after_window) break;
+    std::this_thread::sleep_for(200ms);  // the log is re-read at most 4 times a second
   }
   kill(pid, SIGTERM);
   waitpid(pid, &status, 0);
@@ -144,7 +172,8 @@ class Faults : public ::testing::Test {
   // down with OK measurements after it (unless `flag_stays`). Returns the daemon's log.
   std::string run_and_check_flag(const std::string& fault_args, const std::string& run_args, const std::string& flag,
                                  bool flag_stays = false, bool counter_gaps_expected = false, int min_ok_after = 20) {
-    const int rc = run_for(fault_args, base_args() + " " + run_args, err());
+    // Five more than asked for: not every measurement after the window need be OK.
+    const int rc = run_for(fault_args, base_args() + " " + run_args, err(), log(), min_ok_after + 5);
     const std::string text = test::read_text(err());
     EXPECT_EQ(rc, 0) << "the daemon did not run until SIGTERM and exit cleanly\n" << text;
     DecodeSummary s;
@@ -283,7 +312,7 @@ TEST_F(Faults, RecordingWriteErrorsRaiseRecordingErrorWhileMeasuringGoesOn) {
 TEST_F(Faults, ShortRecordingWritesLoseNothing) {
   const fs::path rec = tmp_.path() / "rec";
   // Every write of the run is cut short: write_all must carry on with the rest of each buffer.
-  const int rc = run_for("--fault record-write:short", base_args() + " --record " + test::quoted(rec), err());
+  const int rc = run_for("--fault record-write:short", base_args() + " --record " + test::quoted(rec), err(), log());
   const std::string text = test::read_text(err());
   ASSERT_EQ(rc, 0) << text;
   EXPECT_GT(number_after(text, "injected record-write "), 100);
@@ -345,7 +374,7 @@ TEST_F(Faults, MeasurementCsvWriteErrorsRaiseRecordingErrorAndTheCsvResumes) {
 
 TEST_F(Faults, ShortMeasurementCsvWritesLoseNothing) {
   const fs::path csv = tmp_.path() / "m.csv";
-  const int rc = run_for("--fault csv-write:short", base_args() + " --csv " + test::quoted(csv), err());
+  const int rc = run_for("--fault csv-write:short", base_args() + " --csv " + test::quoted(csv), err(), log());
   const std::string text = test::read_text(err());
   ASSERT_EQ(rc, 0) << text;
   EXPECT_GT(number_after(text, "injected csv-write "), 100);
