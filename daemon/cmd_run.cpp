@@ -48,6 +48,10 @@
 namespace rutd {
 namespace {
 
+// How long a stop waits for the pairs in flight (RealtimePipeline::drain): a handful of slots, each a
+// few tens of ms per stage, well within the unit's one-second stop.
+constexpr std::chrono::milliseconds kStopDrain{400};
+
 // Command-line overrides of the configuration, for quick runs and tests.
 struct RunOptions {
   std::string config;
@@ -302,9 +306,15 @@ int run_daemon(const RunOptions& o, const RunInjection& injection) {
     if ((o.frames > 0 && s.published >= o.frames) || s.finished) break;
   }
   systemd.stopping();
+  // The pairs already acquired (and recorded) are measured and published; what is left after
+  // kStopDrain is abandoned, so that SIGTERM still ends the daemon within a second, and said so.
+  const bool drained = pipeline.drain(kStopDrain);
   pipeline.stop();
   const PipelineStats s = pipeline.stats();
   spdlog::info("stopped: {}", describe(s));
+  if (!drained)
+    spdlog::warn("stop: {} pairs acquired were still in the pipeline after {} ms and are not published", s.in_flight(),
+                 kStopDrain.count());
   if (speed) {
     speed->stop();
     traffic.finish();  // the last, open segment

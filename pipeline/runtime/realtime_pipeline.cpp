@@ -67,6 +67,11 @@ void validate(const PipelineConfig& c) {
   }
 }
 
+std::uint64_t PipelineStats::in_flight() const noexcept {
+  const std::uint64_t handled = published + dropped_total() + stale_total() + rectify_rejected + stage_errors;
+  return acquired > handled ? acquired - handled : 0;
+}
+
 std::uint64_t PipelineStats::dropped_total() const noexcept {
   std::uint64_t n = 0;
   for (auto d : dropped) n += d;
@@ -545,6 +550,16 @@ void RealtimePipeline::stop() {
   for (auto& t : impl_->threads) t.request_stop();
   for (auto& t : impl_->threads)
     if (t.joinable()) t.join();
+}
+
+bool RealtimePipeline::drain(std::chrono::milliseconds timeout) {
+  if (!impl_ || !impl_->started) return false;
+  std::jthread& acquire = impl_->threads[idx(Stage::Acquire)];
+  acquire.request_stop();
+  if (acquire.joinable()) acquire.join();
+  // Its last push is done: downstream now sees the end of the stream (stage_loop) and drains.
+  impl_->done[idx(Stage::Acquire)].store(true, std::memory_order_release);
+  return wait_finished(timeout);
 }
 
 bool RealtimePipeline::finished() const noexcept {

@@ -2,9 +2,9 @@
 // canmatrix from its own J1939 database, tests/integration/encode_speed_profile.py, sent at the log's
 // pace into the receiver's socket by rutd_faults --speed-from: the daemon's code, without CAN kernel
 // support; tests/can runs it on a real kernel's vcan), records the pairs and vehicle.log, and writes the
-// segment CSV. `rutd replay` of that recording must give the same segments (the last, closed when the run
-// stopped, may differ by the pairs recorded after the last one published); a stop adds no frames; a
-// silent sender makes the segment UNKNOWN.
+// segment CSV. `rutd replay` of that recording must give the same segments, the last (closed when the run
+// stopped) included: the stop drains the pairs in flight, so that live and replay measure the same pairs;
+// a stop adds no frames; a silent sender makes the segment UNKNOWN.
 #include <algorithm>
 #include <cstdio>
 #include <filesystem>
@@ -111,8 +111,10 @@ TEST(TrafficabilityLive, RunMeasuresOnDistanceAndReplayGivesTheSameSegments) {
   const auto live = lines(read_text(tmp.path() / "live.csv"));
   const auto replay = lines(read_text(tmp.path() / "replay.csv"));
   ASSERT_GE(live.size(), 5u) << run_log;  // header and at least 4 segments
-  ASSERT_EQ(live.size(), replay.size());
-  for (std::size_t i = 0; i + 1 < live.size(); ++i) EXPECT_EQ(live[i], replay[i]) << "row " << i;
+  const std::string both = "--- live:\n" + read_text(tmp.path() / "live.csv") + "--- replay:\n" +
+                           read_text(tmp.path() / "replay.csv") + "--- live run:\n" + run_log;
+  ASSERT_EQ(live.size(), replay.size()) << both;
+  for (std::size_t i = 0; i < live.size(); ++i) EXPECT_EQ(live[i], replay[i]) << "row " << i << "\n" << both;
   // The stop: frames at rest were not placed; the silence: speed stale, its segment UNKNOWN.
   const auto at_rest = run_log.find(" at rest or reversing");
   ASSERT_NE(at_rest, std::string::npos) << run_log;

@@ -385,6 +385,29 @@ TEST(RealtimePipeline, StopUnderLoadReturnsWithinOneSecond) {
   EXPECT_LT(std::chrono::steady_clock::now() - t0, 1100ms);
 }
 
+// The daemon's stop: acquisition ends, and every pair it took is handled (published, or dropped, stale,
+// rejected, failed, each counted) before the threads stop; stop() alone abandons those in flight.
+TEST(RealtimePipeline, DrainHandlesEveryAcquiredFrameBeforeStopping) {
+  FakeSource source({.period = 1ms});
+  FakeStages stages({.rectify = 20ms, .match = 30ms, .extract = 20ms});
+  FakeSink sink;
+  RealtimePipeline pipeline(source, stages, sink, test_config());
+  pipeline.start();
+  std::this_thread::sleep_for(300ms);
+  ASSERT_TRUE(pipeline.drain(5s));
+  const PipelineStats drained = pipeline.stats();
+  std::this_thread::sleep_for(50ms);
+  pipeline.stop();
+  const PipelineStats s = pipeline.stats();
+  print_stats(s);
+  EXPECT_TRUE(s.finished);
+  EXPECT_GT(s.published, 0u);
+  EXPECT_EQ(accounted(s), s.acquired);
+  EXPECT_EQ(s.acquired, drained.acquired) << "acquisition went on after drain()";
+  EXPECT_EQ(s.published, sink.published.load());
+  EXPECT_EQ(sink.mismatches.load(), 0u);
+}
+
 TEST(RealtimePipeline, EndOfStreamDrainsEveryFrameInOrderWhenLossless) {
   FakeSource source({.frames = 200});
   FakeStages stages({.match = 200us});

@@ -13,7 +13,7 @@
 //
 // Every wait is bounded (a few ms), so stop() returns within the longest single stage call (or the
 // source's own bounded wait) plus a few ms. A finite source (EndOfStream) drains: each stage finishes
-// what is queued, then the pipeline reports finished().
+// what is queued, then the pipeline reports finished(); drain() does the same on demand.
 #include <array>
 #include <chrono>
 #include <cstddef>
@@ -138,6 +138,8 @@ struct PipelineStats {
 
   std::uint64_t dropped_total() const noexcept;
   std::uint64_t stale_total() const noexcept;
+  // Acquired and in none of the outcomes above: in flight (or abandoned by stop()).
+  std::uint64_t in_flight() const noexcept;
 };
 
 // One line for the log: counters, rates, end-to-end and per-stage p50/p99/max in ms.
@@ -160,6 +162,11 @@ class RealtimePipeline {
   // Asks every thread to stop and joins them; frames in flight are abandoned. Idempotent, any thread
   // but a pipeline thread (a sink must not call it).
   void stop();
+  // Stops acquisition (joins its thread) and lets the other stages finish what they hold, as at the end
+  // of a finite source, for up to `timeout`; true when everything acquired was handled (finished()).
+  // The daemon's stop: a pair already acquired, and so recorded by a recording source, is measured and
+  // published rather than abandoned. Call stop() after it. Same threads as stop(); once started.
+  bool drain(std::chrono::milliseconds timeout);
   // Waits up to `timeout` for a finite source to drain; true when finished().
   bool wait_finished(std::chrono::milliseconds timeout) const;
   bool finished() const noexcept;
