@@ -67,6 +67,12 @@ void add_condition_options(CLI::App& cmd, SceneOptions& o) {
       ->check(CLI::Range(0.0, 100.0))
       ->capture_default_str()
       ->group(water);
+  cmd.add_option("--wet-fringe", w.wet_fringe_mm,
+                 "Capillary fringe: the soil wet, darkening towards the waterline, this far above it, mm (fine sand "
+                 "and silt: tens of mm)")
+      ->check(CLI::Range(0.0, 200.0))
+      ->capture_default_str()
+      ->group(water);
   cmd.add_option("--water-colour", w.body_albedo,
                  "Body colour: radiance of deep water relative to white (0.05 dark, 0.1-0.3 silt-laden)")
       ->check(CLI::Range(0.0, 1.0))

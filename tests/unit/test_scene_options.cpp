@@ -15,13 +15,15 @@ SyntheticRendererConfig parse(const std::string& line) { return parse_scene_line
 
 TEST(SceneOptions, ConditionsAndCamerasLandInTheRenderersSettings) {
   const SyntheticRendererConfig p = parse(
-      "--depth 40 --water-level 12 --water-attenuation 0.005 --water-colour 0.1 --debris 0.5 --debris-kind leaves "
+      "--depth 40 --water-level 12 --water-attenuation 0.005 --wet-fringe 15 --water-colour 0.1 --debris 0.5 "
+      "--debris-kind leaves "
       "--ripple 0.05 --ripple-kind rain --sun-elevation 60 --sun-azimuth 180 --underside-height 0 --lens "
       "drops:each:0.2 --lens mud:left:0.3:0.4 --splash 0.2 --splash-camera right --auto-exposure --light 0.2 "
       "--right-response 1.04 --right-delay-ms 2.5");
   const WaterConfig& w = p.conditions.water;
   EXPECT_EQ(w.level_mm, 12);
   EXPECT_EQ(w.attenuation_per_mm, 0.005);
+  EXPECT_EQ(w.wet_fringe_mm, 15);
   EXPECT_EQ(w.body_albedo, 0.1);
   EXPECT_EQ(w.debris_cover, 0.5);
   EXPECT_EQ(w.debris, DebrisKind::Leaves);
@@ -63,6 +65,7 @@ TEST(SceneOptions, BadValuesAreRefusedNamingTheOption) {
       {"--depth 50 --water-level 60", "--water-level"},
       {"--water-level 20 --depth-profile 0:30,10:15", "--water-level"},
       {"--water-attenuation -1", "--water-attenuation"},
+      {"--wet-fringe -2", "--wet-fringe"},
       {"--sun-elevation 1", "--sun-elevation"},
       {"--gain 2 --auto-exposure", "--gain"},
       {"--gain 0.5", "--gain"},
