@@ -359,14 +359,28 @@ TEST(RealtimePipeline, FramesThatAgeInsideThePipelineAreRefusedBeforePublishing)
   EXPECT_TRUE(sink.saw_stale.load()) << "frames were refused for age but no status said StaleFrames";
 }
 
-TEST(RealtimePipeline, StopUnderLoadReturnsWithinOneSecond) {
-  FakeSource source({.period = 1ms});
-  FakeStages stages({.rectify = 20ms, .match = 30ms, .extract = 20ms});
+// A source at 1 kHz into stages of 20, 30 and 20 ms: every slot in flight, most pairs dropped.
+struct UnderLoad {
+  FakeSource source{{.period = 1ms}};
+  FakeStages stages{{.rectify = 20ms, .match = 30ms, .extract = 20ms}};
   FakeSink sink;
-  {
-    RealtimePipeline pipeline(source, stages, sink, test_config());
-    pipeline.start();
+  // Started, and run for 300 ms.
+  std::unique_ptr<RealtimePipeline> run() {
+    auto pipeline = std::make_unique<RealtimePipeline>(source, stages, sink, test_config());
+    pipeline->start();
     std::this_thread::sleep_for(300ms);
+    return pipeline;
+  }
+};
+
+TEST(RealtimePipeline, StopUnderLoadReturnsWithinOneSecond) {
+  UnderLoad load;
+  FakeSource& source = load.source;
+  FakeStages& stages = load.stages;
+  FakeSink& sink = load.sink;
+  {
+    const std::unique_ptr<RealtimePipeline> running = load.run();
+    RealtimePipeline& pipeline = *running;
     const auto t0 = std::chrono::steady_clock::now();
     pipeline.stop();
     const auto took = std::chrono::steady_clock::now() - t0;
@@ -388,12 +402,10 @@ TEST(RealtimePipeline, StopUnderLoadReturnsWithinOneSecond) {
 // The daemon's stop: acquisition ends, and every pair it took is handled (published, or dropped, stale,
 // rejected, failed, each counted) before the threads stop; stop() alone abandons those in flight.
 TEST(RealtimePipeline, DrainHandlesEveryAcquiredFrameBeforeStopping) {
-  FakeSource source({.period = 1ms});
-  FakeStages stages({.rectify = 20ms, .match = 30ms, .extract = 20ms});
-  FakeSink sink;
-  RealtimePipeline pipeline(source, stages, sink, test_config());
-  pipeline.start();
-  std::this_thread::sleep_for(300ms);
+  UnderLoad load;
+  const std::unique_ptr<RealtimePipeline> running = load.run();
+  RealtimePipeline& pipeline = *running;
+  const FakeSink& sink = load.sink;
   ASSERT_TRUE(pipeline.drain(5s));
   const PipelineStats drained = pipeline.stats();
   std::this_thread::sleep_for(50ms);
