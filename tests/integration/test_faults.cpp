@@ -74,17 +74,9 @@ long long number_after(const std::string& text, const std::string& label) {
 }
 
 // The RutMeasurement1 frames (any status) a candump log holds so far: its identifier in config/rutd.dbc
-// (2566869152 = 0x80000000 | 0x18FF50A0). A line still being written is not counted. Used only to decide
-// when a run has measured enough; what the tests assert is decoded by canmatrix.
-int measurement_lines(const fs::path& log) {
-  std::ifstream in(log);
-  int n = 0;
-  for (std::string line; std::getline(in, line);) {
-    if (in.eof()) break;  // no newline yet
-    if (line.find(" 18FF50A0#") != std::string::npos) ++n;
-  }
-  return n;
-}
+// (2566869152 = 0x80000000 | 0x18FF50A0). Used only to decide when a run has measured enough; what the
+// tests assert is decoded by canmatrix.
+int measurement_lines(const fs::path& log) { return test::count_lines(log, " 18FF50A0#"); }
 
 // Runs `rutd_faults FAULT_ARGS run RUN_ARGS` for kRunAfterReady after its first good measurement, and on
 // until `log` holds `min_after_window` measurement frames sent after the fault window, at most a minute in

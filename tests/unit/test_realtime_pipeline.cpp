@@ -375,9 +375,6 @@ struct UnderLoad {
 
 TEST(RealtimePipeline, StopUnderLoadReturnsWithinOneSecond) {
   UnderLoad load;
-  FakeSource& source = load.source;
-  FakeStages& stages = load.stages;
-  FakeSink& sink = load.sink;
   {
     const std::unique_ptr<RealtimePipeline> running = load.run();
     RealtimePipeline& pipeline = *running;
@@ -392,7 +389,7 @@ TEST(RealtimePipeline, StopUnderLoadReturnsWithinOneSecond) {
   // Destroying a running pipeline stops it too.
   const auto t0 = std::chrono::steady_clock::now();
   {
-    RealtimePipeline pipeline(source, stages, sink, test_config());
+    RealtimePipeline pipeline(load.source, load.stages, load.sink, test_config());
     pipeline.start();
     std::this_thread::sleep_for(100ms);
   }
@@ -405,7 +402,6 @@ TEST(RealtimePipeline, DrainHandlesEveryAcquiredFrameBeforeStopping) {
   UnderLoad load;
   const std::unique_ptr<RealtimePipeline> running = load.run();
   RealtimePipeline& pipeline = *running;
-  const FakeSink& sink = load.sink;
   ASSERT_TRUE(pipeline.drain(5s));
   const PipelineStats drained = pipeline.stats();
   std::this_thread::sleep_for(50ms);
@@ -416,8 +412,8 @@ TEST(RealtimePipeline, DrainHandlesEveryAcquiredFrameBeforeStopping) {
   EXPECT_GT(s.published, 0u);
   EXPECT_EQ(accounted(s), s.acquired);
   EXPECT_EQ(s.acquired, drained.acquired) << "acquisition went on after drain()";
-  EXPECT_EQ(s.published, sink.published.load());
-  EXPECT_EQ(sink.mismatches.load(), 0u);
+  EXPECT_EQ(s.published, load.sink.published.load());
+  EXPECT_EQ(load.sink.mismatches.load(), 0u);
 }
 
 TEST(RealtimePipeline, EndOfStreamDrainsEveryFrameInOrderWhenLossless) {
