@@ -286,6 +286,7 @@ void read_measurement(Section s, MeasurerConfig& m) {
             return std::string();
           })
       .get<bool>("dic", m.dic)
+      .get<bool>("low_texture_read", m.low_texture_read)
       .get<int>("gap_fill_half_window", m.gap_fill_half_window,
                 [&](const int& v) { return gap_fill_window_problem(v, m.dic_config.half_window); })
       .get<std::string>("gpu_device", m.engine_config.gpu_device)

@@ -16,6 +16,9 @@ void add_measure_options(CLI::App& cmd, MeasureOptions& o) {
                  "again (measurement.gap_fill_half_window); 0: off")
       ->check(CLI::Range(0, 15))
       ->capture_default_str();
+  cmd.add_flag("--no-low-texture-read", o.no_low_texture_read,
+               "Do not read a frame refused for its unmatched DIC windows again with the images' noise judging the "
+               "windows' correlation (measurement.low_texture_read: false)");
   cmd.add_option("--strip-rows", o.strip_rows,
                  "Rows of the rectified image measured (0: a tenth of the height, 20..64)")
       ->check(CLI::Range(0, 4096));
@@ -54,6 +57,7 @@ MeasurerConfig resolve_measure_options(const MeasureOptions& o) {
   MeasurerConfig c = o.config;
   c.engine = *parse_engine(o.engine);  // IsMember above guarantees a known name
   c.dic = !o.no_dic;
+  if (o.no_low_texture_read) c.low_texture_read = false;
   if (c.range.near_mm >= c.range.far_mm) throw CLI::ValidationError("--near-mm", "must be smaller than --far-mm");
   if (const std::string problem = gap_fill_window_problem(c.gap_fill_half_window, c.dic_config.half_window);
       !problem.empty())

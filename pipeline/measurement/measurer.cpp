@@ -185,7 +185,20 @@ void StereoMeasurer::read_strips_together(FrameWork& w, const RutWorkspace& work
   // the guards are asked for water (guards_asked), check_guards measures them, and a lid's memory must not
   // see one frame twice. The guards are measured even when the strip itself is too noisy: each carries
   // its engine's start and band from the frame before, so the frames they see shape their next readings.
-  if (!guards_ || m.status != RutStatus::Uncertain || m.conditions != kConditionUncertain ||
+  // A depth found OK only by the low-texture reading (read_low_texture) is read together too: on such
+  // ground the profile's noise estimate is least sure (measured: errors beyond 3 u on 5 of 92 frames in
+  // snow), so it is published only where the guards confirm it, as their weighted mean, and else refused.
+  const bool confirm = w.diag.low_texture_read && m.status == RutStatus::Ok;
+  const auto refuse = [&] {
+    if (!confirm) return;
+    m.status = RutStatus::Uncertain;
+    m.conditions |= kConditionUncertain;
+  };
+  // Nothing confirms it without guards, or near water (where check_guards measures them for water alone);
+  // nor is it published with a condition (Overexposed: clipping takes the texture the noise judge counts
+  // on; measured: 1.5 mm off on a clipped sand frame).
+  if (confirm && (!guards_ || guards_asked(workspace, w.frame.t_ns) || m.conditions != 0)) return refuse();
+  if (!guards_ || !(confirm || (m.status == RutStatus::Uncertain && m.conditions == kConditionUncertain)) ||
       !std::isfinite(m.depth_uncertainty_mm) || !(m.depth_uncertainty_mm > 0.0) ||
       guards_asked(workspace, w.frame.t_ns))
     return;
@@ -203,7 +216,7 @@ void StereoMeasurer::read_strips_together(FrameWork& w, const RutWorkspace& work
         depths[n++] = {g.depth_mm, g.depth_uncertainty_mm};
     }
   }
-  if (n < 3 || !usable(m.depth_uncertainty_mm)) return;
+  if (n < 3 || !usable(m.depth_uncertainty_mm)) return refuse();
   double sw = 0.0, swd = 0.0;
   for (std::size_t i = 0; i < n; ++i) {
     const double wt = 1.0 / (depths[i].second * depths[i].second);
@@ -215,7 +228,7 @@ void StereoMeasurer::read_strips_together(FrameWork& w, const RutWorkspace& work
   for (std::size_t i = 0; i < n; ++i) chi2 += std::pow((depths[i].first - mean) / depths[i].second, 2);
   // The strips agree as their uncertainties say (chi-square of 2 degrees of freedom under its 95th
   // percentile), and together they are precise enough.
-  if (!(chi2 <= 5.99) || !(u <= limit)) return;
+  if (!(chi2 <= 5.99) || !(u <= limit)) return refuse();
   m.depth_mm = mean;
   m.depth_uncertainty_mm = u;
   m.status = RutStatus::Ok;
@@ -838,6 +851,30 @@ void StereoMeasurer::read_gaps(FrameWork& w, RutWorkspace& workspace, int first)
   w.diag.gaps_read = true;
 }
 
+void StereoMeasurer::read_low_texture(FrameWork& w, RutWorkspace& workspace, const PairSignal& signal,
+                                      int first) const {
+  const RutStatus s = w.measurement.status;
+  if (!config_.low_texture_read || !config_.dic || w.disparity.empty() ||
+      (s != RutStatus::TooFewPoints && s != RutStatus::NoGround && s != RutStatus::Uncertain))
+    return;
+  // The raw images' noise, in the strips' 8-bit grey levels (rectification's interpolation leaves the
+  // strips a little less noisy than the raw pixels: the bound errs on the side of keeping a window).
+  const double noise = 255.0 * std::max(signal.left.noise, signal.right.noise);
+  if (!(noise > 0.0)) return;
+  DicConfig dic = strip_dic_config();
+  dic.noise_grey = noise;
+  carry_across_gaps(w.disparity, dic.row_begin, dic.row_end, w.low_disparity);
+  const DicStats stats = refine_disparity_dic(w.left_strip, w.right_strip, w.low_disparity, dic, w.gap_dic);
+  if (stats.refined <= w.diag.dic.refined) return;  // the noise kept no window the first reading lost
+  geometry_.reproject(w.low_disparity, w.xyz);
+  reduce_to_cross_section(w.xyz.rowRange(first, first + strip_.rows), config_.rut, w.section);
+  cv::swap(w.disparity, w.low_disparity);
+  w.measurement = extract_rut(w.section, config_.rut, workspace);
+  w.diag.low_texture_read = true;
+  w.diag.gaps_read = false;
+  read_gaps(w, workspace, first);
+}
+
 void StereoMeasurer::extract(FrameWork& w, RutWorkspace& workspace) const {
   auto t0 = Clock::now();
   geometry_.reproject(w.disparity, w.xyz);
@@ -849,16 +886,17 @@ void StereoMeasurer::extract(FrameWork& w, RutWorkspace& workspace) const {
   t0 = Clock::now();
   reduce_to_cross_section(measured, config_.rut, w.section);
   w.measurement = extract_rut(w.section, config_.rut, workspace);
-  read_gaps(w, workspace, first);
-  read_through_water(w, workspace, measured, first);
   // The raw rows numbered as the measured strip's (near them: rectification moves rows little about the
   // principal row, and the light is the same a few rows away): sixteen of them per camera tell the light
-  // (ConditionConfig::low_light_texture_to_noise).
+  // (ConditionConfig::low_light_texture_to_noise) and the noise (read_low_texture).
   PairSignal signal;
-  if (config_.conditions.enabled) {
-    signal.left = image_signal(w.frame.left, strip_.row0, strip_.row0 + strip_.rows, 16, w.checks.histogram);
-    signal.right = image_signal(w.frame.right, strip_.row0, strip_.row0 + strip_.rows, 16, w.checks.histogram);
-  }
+  signal.left = image_signal(w.frame.left, strip_.row0, strip_.row0 + strip_.rows, 16, w.checks.histogram);
+  signal.right = image_signal(w.frame.right, strip_.row0, strip_.row0 + strip_.rows, 16, w.checks.histogram);
+  read_gaps(w, workspace, first);
+  read_low_texture(w, workspace, signal, first);
+  const cv::Mat points = w.xyz.rowRange(first, first + strip_.rows);  // read_low_texture may have read it again
+  read_through_water(w, workspace, points, first);
+  if (!config_.conditions.enabled) signal = PairSignal{};
   check_frame(w.left_strip, w.right_strip, w.disparity, first, first + strip_.rows, geometry_, workspace.geometry,
               w.diag.band, w.frame.skew_ns, signal, config_.conditions, w.checks, w.measurement);
   read_strips_together(w, workspace);

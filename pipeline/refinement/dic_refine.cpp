@@ -699,7 +699,9 @@ bool refine_pixel(const DicWorkspace& ws, const Layout& l, const float* sums, co
         const double variance = r2 / (n - unknowns) * ref.h_inv[0][0];
         if (!(variance <= p.max_sigma_px * p.max_sigma_px)) return false;
       }
-      return zncc >= p.min_zncc;
+      if (zncc >= p.min_zncc) return true;
+      return p.noise_grey > 0.0 && zncc >= p.min_noise_zncc &&
+             (1.0 - zncc) * ref.f2 <= p.noise_tolerance * n * p.noise_grey * p.noise_grey;
     }
   }
   return false;

@@ -6,12 +6,10 @@
 #include <cmath>
 #include <cstdio>
 #include <string>
-#include <vector>
 
 #include <gtest/gtest.h>
 
-#include "recording/measurement_csv.hpp"
-#include "synthetic/truth_csv.hpp"
+#include "replay_outcomes.hpp"
 #include "test_support.hpp"
 
 namespace rutd {
@@ -29,43 +27,11 @@ constexpr const char* kScenes[] = {
 };
 constexpr int kFrames = 8;
 
-struct Count {
-  int frames = 0, ok = 0, ok_beyond_1mm = 0;
-};
-
-// Replays rec with `options`, adding its outcomes to `count` against the truth.
-void replay_and_count(const std::string& rec, const std::string& options, const test::TempDir& tmp, int tag,
-                      Count& count) {
-  const std::string csv = (tmp.path() / ("m" + std::to_string(tag) + ".csv")).string();
-  const std::string err = (tmp.path() / ("err" + std::to_string(tag) + ".txt")).string();
-  ASSERT_EQ(test::run_rutd("replay " + rec + " --out " + csv + " " + options, err), 0) << test::read_text(err);
-  const auto rows = read_measurement_csv(csv).rows;
-  const auto truth = read_truth_csv(rec + "/truth.csv");
-  ASSERT_EQ(rows.size(), truth.size());
-  for (std::size_t i = 0; i < rows.size(); ++i) {
-    ++count.frames;
-    if (rows[i].measurement.status != RutStatus::Ok) continue;
-    ++count.ok;
-    const double error = rows[i].measurement.depth_mm - truth[i].depth_mm;
-    if (std::abs(error) > 1.0) ++count.ok_beyond_1mm;
-    EXPECT_LE(std::abs(error), 1.0) << options << " frame " << i << " of " << rec;
-  }
-}
-
 TEST(GapFill, WiderWindowsPublishMoreSnowFramesAndNoneWrong) {
-  Count with, without;
-  int tag = 0;
-  for (const char* scene : kScenes) {
-    const test::TempDir tmp;
-    const std::string rec = (tmp.path() / "rec").string();
-    ASSERT_EQ(test::run_rutd("synth " + rec + " --frames " + std::to_string(kFrames) + " " + scene), 0);
-    replay_and_count(rec, "", tmp, ++tag, with);
-    replay_and_count(rec, "--gap-fill-window 0", tmp, ++tag, without);
-  }
+  test::ReplayOutcomes with, without;
+  test::replay_with_and_without(kScenes, kFrames, "--gap-fill-window 0", with, without);
+  if (HasFatalFailure()) return;
   std::printf("OK of %d frames: %d with the gaps read again, %d without\n", with.frames, with.ok, without.ok);
-  const int all = kFrames * static_cast<int>(std::size(kScenes));
-  ASSERT_EQ(with.frames, all);
-  ASSERT_EQ(without.frames, all);
   EXPECT_EQ(with.ok_beyond_1mm, 0);
   EXPECT_EQ(without.ok_beyond_1mm, 0);
   // Measured: 14 of 16 with, 6 without.

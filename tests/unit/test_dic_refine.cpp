@@ -279,6 +279,58 @@ TEST(DicRefine, ColumnWindowsNeedAQuarterOfTheColumnValid) {
   EXPECT_NEAR(disparity.at<float>(20, 101), d_true, 0.05);
 }
 
+// Low texture under noise (snow under gain): the texture's RMS is 3 grey levels against a noise of 2,
+// so a correct column window correlates at about 0.7 and min_zncc (0.8) alone rejects nearly all. With the
+// noise known (DicConfig::noise_grey), the residual a correct match leaves is what that noise explains:
+// the windows are kept, at the truth. A right strip of another texture (no match anywhere) stays
+// rejected, and so do the windows when the noise given is far under the real one.
+struct LowTextureCase {
+  int columns = 0, refined = 0, within = 0;
+};
+
+LowTextureCase refine_low_texture(double noise_grey, bool same_texture, double d_true) {
+  const cv::Size strip(320, 48);
+  const double noise = 2.0;
+  auto waves = random_texture(41);
+  for (Wave& w : waves) w.amplitude *= 3.0 / 40.0;
+  const cv::Mat left = render(waves, strip, 1.0, 0.0, noise, 42);
+  auto other = random_texture(77);
+  for (Wave& w : other) w.amplitude *= 3.0 / 40.0;
+  const cv::Mat right = render(same_texture ? waves : other, strip, 1.0, d_true, noise, 43);
+  cv::Mat disparity(strip, CV_32FC1, cv::Scalar(d_true + 0.3));
+  DicConfig params;
+  params.column_windows = true;
+  params.noise_grey = noise_grey;
+  DicWorkspace ws;
+  refine_disparity_dic(left, right, disparity, params, ws);
+  LowTextureCase c;
+  for (int x = 40; x < strip.width - 10; ++x) {
+    ++c.columns;
+    const float d = disparity.at<float>(strip.height / 2, x);
+    c.refined += std::isfinite(d);
+    c.within += std::isfinite(d) && std::abs(d - d_true) < 0.25;
+  }
+  return c;
+}
+
+TEST(DicRefine, NoiseJudgesTheCorrelationOfLowTextureWindows) {
+  const double d_true = 22.4;
+  const LowTextureCase alone = refine_low_texture(0.0, true, d_true);
+  const LowTextureCase judged = refine_low_texture(2.0, true, d_true);
+  const LowTextureCase no_match = refine_low_texture(2.0, false, d_true);
+  const LowTextureCase too_little = refine_low_texture(0.5, true, d_true);
+  std::printf(
+      "of %d columns: min_zncc alone %d refined; noise judged %d (%d within 0.25 px); another texture %d; "
+      "noise given as 0.5 %d\n",
+      judged.columns, alone.refined, judged.refined, judged.within, no_match.refined, too_little.refined);
+  // Measured: 5, 175 (174 within), 0 and 5 of 270.
+  EXPECT_LT(alone.refined, 0.05 * alone.columns);
+  EXPECT_GT(judged.within, 0.55 * judged.columns);
+  EXPECT_GE(judged.within, judged.refined - judged.columns / 100);  // what it keeps is at the truth
+  EXPECT_LT(no_match.refined, 0.02 * no_match.columns);
+  EXPECT_LE(too_little.refined, alone.refined + too_little.columns / 100);
+}
+
 TEST(DicRefine, WideVectorsGiveTheSameResultsBitForBit) {
   // On x86 CPUs with AVX2 the samples are taken 8 lanes at a time; the 4-lane path must give the same
   // disparities to the bit (elsewhere both runs take the 4-lane path).

@@ -12,6 +12,7 @@ struct MeasureOptions {
   MeasurerConfig config;
   std::string engine = "sgbm3way";
   bool no_dic = false;
+  bool no_low_texture_read = false;
   int strip_rows = 0;
   std::string strip_first_row = "centred";  // or a rectified row number
 };

@@ -96,6 +96,13 @@ struct MeasurerConfig {
   // wide windows blur a lid's edges and the bottom's curvature. In extract(), on the CPU, for any
   // engine; other frames cost nothing. 0: off.
   int gap_fill_half_window = 11;
+  // A frame refused for what its windows did not match (TooFewPoints, NoGround, Uncertain) is read again by
+  // DIC with the raw images' noise judging each window's correlation (DicConfig::noise_grey), from its
+  // refined disparity carried across the gaps, and that reading replaces the first where it keeps more
+  // windows (read_low_texture); a depth it alone makes Ok is published only where the guard strips confirm
+  // it (read_strips_together). Low-texture ground under gain (snow, dim light) correlates under min_zncc
+  // where it matches. In extract(), on the CPU, for any engine; other frames cost nothing.
+  bool low_texture_read = true;
   static constexpr int kMaxReusedFrames = 15;
   static constexpr double kMinReusedShare = 0.97;
   RutConfig rut;
@@ -125,7 +132,8 @@ struct MeasurementDiagnostics {
   int guard_strips = 0;         // guard strips measured (StripConfig::guards), in rut_ms
   bool guard_water = false;     // ... and one of them refused the frame
   bool gaps_read = false;  // the gaps were read with wider windows (MeasurerConfig::gap_fill_half_window), in rut_ms
-  bool strips_together = false;  // an Uncertain depth published from the strip and its guards (read_strips_together)
+  bool low_texture_read = false;  // read again with the noise judging the correlation (read_low_texture), in rut_ms
+  bool strips_together = false;   // an Uncertain depth published from the strip and its guards (read_strips_together)
 };
 
 // Everything one pair needs on its way through the stages. Frame pools hold these; every buffer is
@@ -154,6 +162,7 @@ struct FrameWork {
   // The gaps read with wider windows (MeasurerConfig::gap_fill_half_window): the refined disparity
   // carried across the gaps and refined again, its points and cross-section, and the DIC's scratch.
   cv::Mat gap_disparity, gap_xyz;
+  cv::Mat low_disparity;  // StereoMeasurer::read_low_texture's reading, swapped with `disparity` where it stands
   CrossSection gap_section;
   DicWorkspace gap_dic;
 };
@@ -224,6 +233,12 @@ class StereoMeasurer {
   // An Uncertain depth whose gaps alone make it so, measured again with its gaps read by wider windows
   // (MeasurerConfig::gap_fill_half_window); `first`: the measured strip's first row within the strips.
   void read_gaps(FrameWork& w, RutWorkspace& workspace, int first) const;
+  // A frame still refused after read_gaps for what its windows did not match (TooFewPoints, NoGround,
+  // Uncertain) read again by DIC with the raw images' noise as the correlation's judge
+  // (DicConfig::noise_grey), from its refined disparity carried across the gaps; where that keeps more
+  // windows, it replaces the first reading (disparity, points, section, measurement; diag.low_texture_read)
+  // and its gaps are read as read_gaps reads them.
+  void read_low_texture(FrameWork& w, RutWorkspace& workspace, const PairSignal& signal, int first) const;
   void read_through_water(FrameWork& w, RutWorkspace& workspace, const cv::Mat& measured, int first) const;
   void read_waterline(FrameWork& w, RutWorkspace& workspace, const WaterlineMemory& last, const LidMemory& last_lid,
                       const LevelSpan& lid, double lid_u, double y_mm) const;
@@ -236,7 +251,8 @@ class StereoMeasurer {
   // uncertainties say (chi-square under 5.99, 2 degrees of freedom), each within 3 times
   // RutConfig::max_depth_uncertainty_mm, and their combined uncertainty is within it, their weighted mean
   // (1/u^2) is published OK with that uncertainty. The section and geometry stay the strip's. The rut is
-  // one along the half of the image they span; strips that disagree leave it Uncertain.
+  // one along the half of the image they span; strips that disagree leave it Uncertain. A depth Ok only by
+  // read_low_texture is measured so too, and refused Uncertain where the strips do not confirm it.
   void read_strips_together(FrameWork& w, const RutWorkspace& workspace) const;
   // Whether one of `depths` (depth, standard uncertainty, mm: the strip's and its guards' OK depths)
   // lies at the level of a lid that this strip or a guard found within memory_s and another of them

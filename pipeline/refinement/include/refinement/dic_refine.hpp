@@ -37,6 +37,16 @@ struct DicConfig {
   // The estimate is the Gauss-Newton covariance: residual variance per sample times the shift term of
   // the inverse Hessian, i.e. the precision the window's texture and noise actually allow.
   double max_sigma_px = 0.0;
+  // The strips' noise, standard deviation in grey levels (8-bit strips); <= 0: unknown, min_zncc alone
+  // judges. Known, a window whose correlation is under min_zncc is still accepted where that is what the
+  // noise leaves of its texture: a correct match's residual is the two views' noise, sum (f' - k g')^2 =
+  // 2 sum f'^2 (1 - zncc) ~ 2 n sigma^2, so it is kept when (1 - zncc) sum f'^2 <= noise_tolerance n sigma^2
+  // and zncc >= min_noise_zncc (where the noise is nearly all of the window, a false match fits as well).
+  // Low-texture ground (snow) under gain correlates at 0.4-0.7 where it matches; textured ground, whose
+  // correct matches correlate near 1, keeps min_zncc's bound.
+  double noise_grey = 0.0;
+  double noise_tolerance = 1.5;
+  double min_noise_zncc = 0.3;
   // Sample with 8-lane AVX2 vectors on x86 CPUs that have them (chosen at run time); the results are
   // bit for bit those of the 4-lane path. false: always the 4-lane path (tests compare the two).
   bool allow_avx2 = true;
