@@ -14,6 +14,7 @@ void RunSummary::add(const RutMeasurement& m, const MeasurementDiagnostics& d) {
   if (s < by_status_.size()) ++by_status_[s];
   if (d.guard_water) ++guard_refused_;
   if (d.gaps_read) ++gaps_read_;
+  if (d.low_texture_read) ++low_texture_read_;
   rectify_ms_ += d.rectify_ms;
   band_ms_ += d.band_ms;
   disparity_ms_ += d.disparity_ms;
@@ -33,6 +34,8 @@ void RunSummary::log() const {
   }
   if (guard_refused_ > 0) statuses += " (" + std::to_string(guard_refused_) + " of them by a guard strip's water)";
   if (gaps_read_ > 0) statuses += "; gaps read again with wider windows on " + std::to_string(gaps_read_) + " pairs";
+  if (low_texture_read_ > 0)
+    statuses += "; read again with the noise judging the windows on " + std::to_string(low_texture_read_) + " pairs";
   const std::uint64_t failures = pairs_ - by_status_[static_cast<std::size_t>(RutStatus::Ok)];
   spdlog::info("{} pairs, {} failures ({}); {:.1f} Hz measuring, {:.1f} Hz wall", pairs_, failures,
                statuses.empty() ? "none" : statuses, measure_ms > 0 ? 1000.0 * pairs_ / measure_ms : 0.0,

@@ -16,6 +16,7 @@ namespace rutd::test {
 
 struct ReplayOutcomes {
   int frames = 0, ok = 0, ok_beyond_1mm = 0;
+  std::string logs;  // the replays' standard error, one after the other
 };
 
 // Replays rec with `options` (files written into tmp, named by `tag`), adding its outcomes to `count`.
@@ -24,6 +25,7 @@ inline void replay_and_count(const std::string& rec, const std::string& options,
   const std::string csv = (tmp.path() / ("m" + std::to_string(tag) + ".csv")).string();
   const std::string err = (tmp.path() / ("err" + std::to_string(tag) + ".txt")).string();
   ASSERT_EQ(run_rutd("replay " + rec + " --out " + csv + " " + options, err), 0) << read_text(err);
+  count.logs += read_text(err);
   const auto rows = read_measurement_csv(csv).rows;
   const auto truth = read_truth_csv(rec + "/truth.csv");
   ASSERT_EQ(rows.size(), truth.size());

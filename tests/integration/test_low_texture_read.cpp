@@ -41,6 +41,10 @@ TEST(LowTextureRead, NoiseJudgedWindowsPublishMoreSnowFramesAndNoneWrong) {
   EXPECT_EQ(without.ok_beyond_1mm, 0);
   // Measured: 19 of 24 with, 4 without.
   EXPECT_GE(with.ok, without.ok + 8);
+  // The run's summary says how many pairs the second reading measured.
+  const std::string said = "read again with the noise judging the windows on ";
+  EXPECT_NE(with.logs.find(said), std::string::npos) << with.logs;
+  EXPECT_EQ(without.logs.find(said), std::string::npos) << without.logs;
 }
 
 }  // namespace

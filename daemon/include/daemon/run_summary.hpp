@@ -22,8 +22,9 @@ class RunSummary {
   std::chrono::steady_clock::time_point start_;
   std::uint64_t pairs_ = 0;
   std::array<std::uint64_t, kRutStatusCount> by_status_{};
-  std::uint64_t guard_refused_ = 0;  // OK on the strip, refused by a guard strip (StripConfig::guards)
-  std::uint64_t gaps_read_ = 0;      // MeasurementDiagnostics::gaps_read
+  std::uint64_t guard_refused_ = 0;     // OK on the strip, refused by a guard strip (StripConfig::guards)
+  std::uint64_t gaps_read_ = 0;         // MeasurementDiagnostics::gaps_read
+  std::uint64_t low_texture_read_ = 0;  // MeasurementDiagnostics::low_texture_read
   double rectify_ms_ = 0, band_ms_ = 0, disparity_ms_ = 0, dic_ms_ = 0, reproject_ms_ = 0, rut_ms_ = 0;
 };
 
