@@ -197,11 +197,11 @@ void StereoMeasurer::read_strips_together(FrameWork& w, const RutWorkspace& work
   // Nothing confirms it without guards, or near water (where check_guards measures them for water alone);
   // nor is it published with a condition (Overexposed: clipping takes the texture the noise judge counts
   // on; measured: 1.5 mm off on a clipped sand frame).
-  if (confirm && (!guards_ || guards_asked(workspace, w.frame.t_ns) || m.conditions != 0)) return refuse();
-  if (!guards_ || !(confirm || (m.status == RutStatus::Uncertain && m.conditions == kConditionUncertain)) ||
-      !std::isfinite(m.depth_uncertainty_mm) || !(m.depth_uncertainty_mm > 0.0) ||
-      guards_asked(workspace, w.frame.t_ns))
+  const bool asked = guards_asked(workspace, w.frame.t_ns);
+  if (confirm && (!guards_ || asked || m.conditions != 0)) return refuse();
+  if (!confirm && (!guards_ || asked || m.status != RutStatus::Uncertain || m.conditions != kConditionUncertain))
     return;
+  if (!std::isfinite(m.depth_uncertainty_mm) || !(m.depth_uncertainty_mm > 0.0)) return refuse();
   std::array<std::pair<double, double>, 3> depths;
   std::size_t n = 0;
   depths[n++] = {m.depth_mm, m.depth_uncertainty_mm};
@@ -857,8 +857,9 @@ void StereoMeasurer::read_low_texture(FrameWork& w, RutWorkspace& workspace, con
   if (!config_.low_texture_read || !config_.dic || w.disparity.empty() ||
       (s != RutStatus::TooFewPoints && s != RutStatus::NoGround && s != RutStatus::Uncertain))
     return;
-  // The raw images' noise, in the strips' 8-bit grey levels (rectification's interpolation leaves the
-  // strips a little less noisy than the raw pixels: the bound errs on the side of keeping a window).
+  // The raw images' noise, in the strips' 8-bit grey levels. Rectification's interpolation leaves the
+  // strips less noisy than the raw pixels (bilinear: down to a quarter of the variance), so the bound errs
+  // on the side of keeping a window; the correlation floor (min_noise_zncc) still holds.
   const double noise = 255.0 * std::max(signal.left.noise, signal.right.noise);
   if (!(noise > 0.0)) return;
   DicConfig dic = strip_dic_config();
@@ -890,8 +891,10 @@ void StereoMeasurer::extract(FrameWork& w, RutWorkspace& workspace) const {
   // principal row, and the light is the same a few rows away): sixteen of them per camera tell the light
   // (ConditionConfig::low_light_texture_to_noise) and the noise (read_low_texture).
   PairSignal signal;
-  signal.left = image_signal(w.frame.left, strip_.row0, strip_.row0 + strip_.rows, 16, w.checks.histogram);
-  signal.right = image_signal(w.frame.right, strip_.row0, strip_.row0 + strip_.rows, 16, w.checks.histogram);
+  if (config_.conditions.enabled || config_.low_texture_read) {
+    signal.left = image_signal(w.frame.left, strip_.row0, strip_.row0 + strip_.rows, 16, w.checks.histogram);
+    signal.right = image_signal(w.frame.right, strip_.row0, strip_.row0 + strip_.rows, 16, w.checks.histogram);
+  }
   read_gaps(w, workspace, first);
   read_low_texture(w, workspace, signal, first);
   const cv::Mat points = w.xyz.rowRange(first, first + strip_.rows);  // read_low_texture may have read it again

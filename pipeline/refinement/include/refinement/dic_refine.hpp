@@ -43,7 +43,8 @@ struct DicConfig {
   // 2 sum f'^2 (1 - zncc) ~ 2 n sigma^2, so it is kept when (1 - zncc) sum f'^2 <= noise_tolerance n sigma^2
   // and zncc >= min_noise_zncc (where the noise is nearly all of the window, a false match fits as well).
   // Low-texture ground (snow) under gain correlates at 0.4-0.7 where it matches; textured ground, whose
-  // correct matches correlate near 1, keeps min_zncc's bound.
+  // correct matches correlate near 1, keeps min_zncc's bound. This CPU refinement only: the GPU engine's
+  // DIC has no such field (StereoMeasurer::read_low_texture calls this one for any engine).
   double noise_grey = 0.0;
   double noise_tolerance = 1.5;
   double min_noise_zncc = 0.3;
