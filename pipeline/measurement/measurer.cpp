@@ -690,6 +690,14 @@ void StereoMeasurer::read_waterline(FrameWork& w, RutWorkspace& workspace, const
     }
   }
   if (line.found && !candidate && !recalled) workspace.last_waterline = WaterlineMemory{w.frame.t_ns, line};
+  // No steps here, but a level span unlike the ground deeper than the waterline confirmed a moment ago:
+  // debris floats at the surface, so what lies deeper than that surface by more than the two levels'
+  // margin is the bottom seen through the water, and is read through it at that line (measured: 19 mm of
+  // clear water on snow, a frame whose walls showed no steps took the bottom it saw through the water,
+  // lit unlike the snow, for a lid and was refused; read through, it is 0.4 mm off the truth).
+  if (!line.found && lid.unlike_ground && recent(last, w.frame.t_ns, c) &&
+      lid.level_mm - last.line.level_mm >= std::max(c.min_seen_below_mm, 2.0 * std::hypot(lid_u, last.line.level_u_mm)))
+    line = last.line;
   if (!line.found) {
     // No waterline above a level span unlike the ground: a lid whose edges the walls do not show.
     if (lid.unlike_ground) {

@@ -5,7 +5,8 @@
 // (dry, the depth is 2 mm short). Measured right after a frame that confirmed its waterline at the same
 // level, a candidate is that water's waterline and is read through: within 1 mm of the renderer's truth,
 // flagged Water. Not after a longer gap than memory_s, not with the memory off, and not after a frame
-// that only recalled its waterline (a chain would carry one chance confirmation on for ever).
+// that only recalled its waterline (a chain would carry one chance confirmation on for ever). A level
+// span deeper than a waterline confirmed a moment ago is the bottom under that water, not a lid.
 // And where a frame shows no steps at all a moment after one that confirmed a waterline (19 mm of clear
 // water on snow), it is read both ways at that level: never the dry depth, 4.8 mm short, published OK.
 // The lid's memory: leaves float on 12 mm of water in a 45 mm grass rut. Where a frame's profile stops
@@ -120,13 +121,16 @@ TEST(WaterlineMemory, ACandidateAtTheLevelTheLastFrameConfirmedIsReadThrough) {
   }
 }
 
-// The scene matrix's water-clear-snow-09, its eight frames in turn as the matrix measures them: frame 6
+// The scene matrix's water-clear-snow-09.
+const char* kClearWaterOnSnow =
+    "--texture snow --depth 43.4 --width 252 --bottom-width 87 --pile-left 10.1 --pile-right 10.5 --baseline 68 "
+    "--height 428 --roll 0.1 --seed 1009 --water-level 19.4 --water-attenuation 0.0030 --water-colour 0.08";
+
+// Its eight frames in turn as the matrix measures them: frame 6
 // confirms its waterline and is read through; frame 7 shows no steps, and without the memory its dry
 // reading is published OK off the truth.
 TEST(WaterlineMemory, AFrameWithoutStepsRightAfterAWaterlineIsReadBothWays) {
-  const SyntheticRenderer renderer(parse_scene_line(
-      "--texture snow --depth 43.4 --width 252 --bottom-width 87 --pile-left 10.1 --pile-right 10.5 --baseline 68 "
-      "--height 428 --roll 0.1 --seed 1009 --water-level 19.4 --water-attenuation 0.0030 --water-colour 0.08"));
+  const SyntheticRenderer renderer(parse_scene_line(kClearWaterOnSnow));
   const std::vector<Measured> without = run(renderer, kEightFrames, 0.0);
   ASSERT_TRUE(read_through(without[6])) << to_string(without[6].m.status) << " " << without[6].m.depth_mm << " mm";
   ASSERT_EQ(without[7].m.status, RutStatus::Ok) << "the scene no longer tests the case";
@@ -137,6 +141,32 @@ TEST(WaterlineMemory, AFrameWithoutStepsRightAfterAWaterlineIsReadBothWays) {
   EXPECT_TRUE(read_through(with[6]));
   EXPECT_TRUE(refused_uncertain_with_water(with[7]))
       << to_string(with[7].m.status) << " " << with[7].m.depth_mm << " mm";
+}
+
+// The same scene's frame 5: its walls show no steps, and the bottom it sees through the water, level and
+// lit unlike the snow, looks like a lid with no waterline above it; without the memory it is refused
+// BOTTOM_NOT_SEEN, 5 mm short. It lies deeper than the waterline frame 4 confirmed by more than the two
+// levels' margin, where no floating debris can be: with the memory it is the bottom under that water, read
+// through it, flagged Water, within 1 mm of the truth; and with the defaults, every frame published OK.
+TEST(WaterlineMemory, ALevelSpanDeeperThanTheWaterlineIsTheBottomUnderIt) {
+  const SyntheticRenderer renderer(parse_scene_line(kClearWaterOnSnow));
+  const std::vector<Measured> without = run(renderer, kEightFrames, 0.0);
+  const std::vector<Measured> with = run(renderer, kEightFrames, MeasurerConfig{}.water.memory_s);
+  ASSERT_EQ(without[5].m.status, RutStatus::BottomNotSeen)
+      << to_string(without[5].m.status) << " " << without[5].m.depth_mm << " mm: the scene no longer tests the case";
+  ASSERT_TRUE(read_through(with[4])) << "frame 4 no longer confirms the waterline";
+  EXPECT_TRUE(read_through(with[5])) << to_string(with[5].m.status) << " " << with[5].m.depth_mm << " mm, truth "
+                                     << with[5].truth_mm;
+  // With the defaults (the guard strips too), as the daemon measures it: every depth published OK is.
+  StereoMeasurer defaults(renderer.calibration(), MeasurerConfig{});
+  int published = 0;
+  for (const std::uint64_t i : kEightFrames) {
+    const Measured r = measure(defaults, renderer, i);
+    if (r.m.status != RutStatus::Ok) continue;
+    ++published;
+    EXPECT_TRUE(read_through(r)) << "frame " << i << ": " << r.m.depth_mm << " mm, truth " << r.truth_mm;
+  }
+  EXPECT_GE(published, 6);
 }
 
 bool bottom_hidden(const Measured& r) {
