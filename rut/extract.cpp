@@ -266,9 +266,10 @@ double pile_height(const RutWorkspace& ws, const Profile& p, const RutConfig& pa
 }
 
 // Standard error (mm) of the robust ground line at x: residual scatter of the ground bins (xs, zs: the
-// last fit's inputs) about the line, propagated as for least squares. 0 with fewer than 3 bins.
+// last fit's inputs) about the line, propagated as for least squares, the slope's share (carried from
+// the bins' mean to x) times `inflation` for noise correlated from bin to bin. 0 with fewer than 3 bins.
 double line_error_at(const std::vector<double>& xs, const std::vector<double>& zs, const detail::Line& line, double x,
-                     std::vector<double>& scratch) {
+                     std::vector<double>& scratch, double inflation) {
   const std::size_t n = std::min(xs.size(), zs.size());
   if (n < 3) return 0.0;
   double mean = 0.0;
@@ -282,7 +283,7 @@ double line_error_at(const std::vector<double>& xs, const std::vector<double>& z
   }
   const double sigma = 1.4826 * detail::median_inplace(scratch.data(), scratch.data() + scratch.size());
   const double lever = sxx > 0.0 ? (x - mean) * (x - mean) / sxx : 0.0;
-  return sigma * std::sqrt(1.0 / double(n) + lever) / std::sqrt(1.0 + line.m * line.m);
+  return sigma * std::sqrt(1.0 / double(n) + inflation * inflation * lever) / std::sqrt(1.0 + line.m * line.m);
 }
 
 // The coverage term of the uncertainty (see extract.hpp): for every gap of NaN bins inside the opening,
@@ -529,7 +530,11 @@ RutMeasurement extract_rut(const CrossSection& section, const RutConfig& params,
   geo.left_pile_x_mm = left_top >= 0 ? p.grid.x(left_top) : none;
   geo.right_pile_x_mm = right_top >= 0 ? p.grid.x(right_top) : none;
 
-  const double u_line = line_error_at(ws.ground_x, ws.ground_z, line, p.grid.x(k), ws.c);
+  // The line's slope error, carried to the deepest point, grows with the noise's correlation as the
+  // wander does (its level error is the wander's, already counted): by `inflation`, at most what noise
+  // correlated over a whole fit window gives (1 / sqrt(leverage); a noise-free section has no scale).
+  const double u_line =
+      line_error_at(ws.ground_x, ws.ground_z, line, p.grid.x(k), ws.c, std::min(inflation, 1.0 / std::sqrt(leverage)));
   const double unseen = unseen_excess(ws.h_fit, ws.slope, line.m, p.grid, o, out.depth_mm, norm, p.half);
   geo.unseen_depth_mm = unseen;
   double bound = unseen;

@@ -99,7 +99,8 @@ void reduce_to_cross_section(const cv::Mat& xyz, const RutConfig& params, CrossS
 //   - the noise of the smoothed profile at the bottom (its wander, from the fit residuals and the
 //     smoothed ground's scatter about the line);
 //   - the ground line's standard error at the deepest point (residual scatter of the ground bins,
-//     their number and lever arm);
+//     their number and lever arm; the slope's share widened by the wander's excess over white noise,
+//     as noise correlated from bin to bin leaves fewer independent bins);
 //   - the coverage across the rut: over a gap without valid bins inside the opening the bottom is not
 //     seen; the profile could continue down with the slopes at the gap's edges (the steepest within
 //     half a fit window of each) until the two meet (a V; half the gap's width where only one edge
