@@ -288,10 +288,7 @@ int run_daemon(const RunOptions& o, const RunInjection& injection) {
   if (web)
     spdlog::info("web view at http://{}:{}/",
                  c.web.bind.find(':') != std::string::npos ? "[" + c.web.bind + "]" : c.web.bind, web->port());
-  if (stalling) {
-    stalling->arm();
-    spdlog::warn("test switch: the match stage stalls after {} pairs", *o.test_stall_match_after);
-  }
+  if (stalling) spdlog::warn("test switch: the match stage stalls after {} pairs", *o.test_stall_match_after);
   for (const auto& w : pipeline.placement_warnings()) spdlog::warn("thread placement: {}", w);
 
   // The main thread supervises: readiness, watchdog, status line, stop conditions.
