@@ -518,6 +518,12 @@ bool within_memory(std::int64_t then_ns, std::int64_t t_ns, const WaterlineConfi
   return c.memory_s > 0.0 && within_s(then_ns, t_ns, c.memory_s);
 }
 
+// How far below a waterline (level uncertainty level_u, mm) a depth of uncertainty u must lie to be seen
+// below the surface, not at it: min_seen_below_mm, or twice their combined uncertainty.
+double seen_below_margin(const WaterlineConfig& c, double u, double level_u) {
+  return std::max(c.min_seen_below_mm, 2.0 * std::hypot(u, level_u));
+}
+
 // The last frame confirmed a waterline at most memory_s before t_ns.
 bool recent(const WaterlineMemory& last, std::int64_t t_ns, const WaterlineConfig& c) {
   return last.line.found && within_memory(last.t_ns, t_ns, c);
@@ -696,7 +702,7 @@ void StereoMeasurer::read_waterline(FrameWork& w, RutWorkspace& workspace, const
   // clear water on snow, a frame whose walls showed no steps took the bottom it saw through the water,
   // lit unlike the snow, for a lid and was refused; read through, it is 0.4 mm off the truth).
   if (!line.found && lid.unlike_ground && recent(last, w.frame.t_ns, c) &&
-      lid.level_mm - last.line.level_mm >= std::max(c.min_seen_below_mm, 2.0 * std::hypot(lid_u, last.line.level_u_mm)))
+      lid.level_mm - last.line.level_mm >= seen_below_margin(c, lid_u, last.line.level_u_mm))
     line = last.line;
   if (!line.found) {
     // No waterline above a level span unlike the ground: a lid whose edges the walls do not show.
@@ -725,7 +731,7 @@ void StereoMeasurer::read_waterline(FrameWork& w, RutWorkspace& workspace, const
   // looking down): a span brighter than the walls above its waterline is a lid at that level, and what
   // stereo finds deeper is a gap in it or a leak of the matching windows, not the bottom.
   const bool brightens = line.left_step > 0.0 && line.right_step > 0.0;
-  const double margin = std::max(c.min_seen_below_mm, 2.0 * std::hypot(u, line.level_u_mm));
+  const double margin = seen_below_margin(c, u, line.level_u_mm);
   // So is one that follows the surface over most of its width (WaterlineConfig::min_share_seen_below):
   // a lid, the bottom glimpsed through its gaps.
   if (brightens || seen_below < margin ||
