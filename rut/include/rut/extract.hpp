@@ -106,6 +106,10 @@ void reduce_to_cross_section(const cv::Mat& xyz, const RutConfig& params, CrossS
 //     half a fit window of each) until the two meet (a V; half the gap's width where only one edge
 //     descends; RutGeometry::unseen_depth_mm), and that extra depth (taken as uniformly
 //     distributed, / sqrt(3)) counts where it would exceed the measured depth;
+//   - the selection at a gap's edge: a deepest point within half a fit window of a gap is read
+//     again at the deepest bin clear of gaps by as much, and half the excess of the first reading
+//     over the second counts (two hypotheses; bins beside what the matcher lost read the surface
+//     off, and the deepest of them is picked);
 // and quality = 1 - u / (2 max_depth_uncertainty_mm), clamped to 0..1 (0 unless the status is Ok,
 // Uncertain or Vegetation). A rough profile is Vegetation and a depth with u above the limit Uncertain
 // (both with the depth computed but not Ok).
