@@ -286,30 +286,24 @@ double line_error_at(const std::vector<double>& xs, const std::vector<double>& z
   return sigma * std::sqrt(1.0 / double(n) + inflation * inflation * lever) / std::sqrt(1.0 + line.m * line.m);
 }
 
-// The selection term of the uncertainty: the deepest smoothed bin k chosen within `reach` bins of a
-// gap (NaN raw bins) rests on a one-sided fit beside pixels the matcher lost, where the matching windows
-// that did match straddle them and read the surface off (measured: bins at a gap's edge in a mud rut's
-// flat bottom 0.5-1 mm deep, the depth taken there 0.83 mm off with an uncertainty of 0.04 mm). The
-// depth is read again at the deepest bin of the opening with no gap within `reach`, and the two
-// readings are two hypotheses: how much deeper `depth` (taken at k) is than the other, mm, for half of
-// it to count as a standard uncertainty (a two-point distribution's). Shallower counts nothing: picking
-// the deepest bin biases deep, so only an excess is the selection's. 0 where k is clear of gaps or no
-// bin of the opening is.
-double gap_edge_excess(const RutWorkspace& ws, const Opening& o, int k, int reach, double depth, double delta,
-                       double inflation) {
+// The selection term of the uncertainty (see extract.hpp): the deepest smoothed bin, chosen within
+// `reach` bins of a gap (NaN raw bins), rests on a one-sided fit beside pixels the matcher lost, where
+// the matching windows that did match straddle them and read the surface off (measured: bins at a gap's
+// edge in a mud rut's flat bottom 0.5-1 mm deep, the depth taken there 0.83 mm off with an uncertainty
+// of 0.04 mm). The other hypothesis is read at the bin this returns: the deepest smoothed bin of the
+// opening with no gap within `reach`; -1 where `k` is clear of gaps itself, or no bin of the opening is.
+int deepest_bin_clear_of_gaps(const RutWorkspace& ws, const Opening& o, int k, int reach) {
   const int n = static_cast<int>(ws.h_raw.size());
   const auto near_gap = [&](int i) {
     for (int j = std::max(0, i - reach); j <= std::min(n - 1, i + reach); ++j)
       if (std::isnan(ws.h_raw[j])) return true;
     return false;
   };
-  if (!near_gap(k)) return 0.0;
+  if (!near_gap(k)) return -1;
   int clear = -1;
   for (int i = std::max(0, o.left_bin); i <= std::min(n - 1, o.right_bin); ++i)
     if (!std::isnan(ws.h_fit[i]) && !near_gap(i) && (clear < 0 || ws.h_fit[i] < ws.h_fit[clear])) clear = i;
-  if (clear < 0) return 0.0;
-  const double other = detail::refine_max(ws.a, ws.b, clear, delta, 2, o.left_bin, o.right_bin, 2.0 * inflation);
-  return std::max(0.0, depth - other);
+  return clear;
 }
 
 // The coverage term of the uncertainty (see extract.hpp): for every gap of NaN bins inside the opening,
@@ -537,9 +531,16 @@ RutMeasurement extract_rut(const CrossSection& section, const RutConfig& params,
   // A flat bottom is the common case: only a curved one (curvature > 2 standard errors) is taken at
   // its vertex. Stricter would bias round bottoms low (flat mean of a curved top), laxer would bias
   // flat bottoms high (the vertex of noise); 2 balances both under 0.1 mm at 0.5 mm noise.
-  out.depth_mm = detail::refine_max(ws.a, ws.b, k, delta, 2, o.left_bin, o.right_bin, 2.0 * inflation);
-  // A gap within the sliding fit's half window of k leans the smoothed value there on the gap's edge.
-  const double u_select = gap_edge_excess(ws, o, k, p.half, out.depth_mm, delta, inflation) / 2.0;
+  const auto depth_at = [&](int bin) {
+    return detail::refine_max(ws.a, ws.b, bin, delta, 2, o.left_bin, o.right_bin, 2.0 * inflation);
+  };
+  out.depth_mm = depth_at(k);
+  // A gap within the sliding fit's half window of k leans the smoothed value there on the gap's edge: the
+  // depth read at the deepest bin clear of gaps is the other hypothesis, and half of how much deeper the
+  // first reading is counts as a standard uncertainty (a two-point distribution's). Shallower counts
+  // nothing: picking the deepest bin biases deep, so only an excess is the selection's.
+  const int clear = deepest_bin_clear_of_gaps(ws, o, k, p.half);
+  const double u_select = clear < 0 ? 0.0 : 0.5 * std::max(0.0, out.depth_mm - depth_at(clear));
   const double norm = std::sqrt(1.0 + line.m * line.m);
   out.width_mm = (o.right_x - o.left_x) * norm;
   out.center_x_mm = 0.5 * (o.left_x + o.right_x);
