@@ -227,6 +227,47 @@ double unseen_flat_run_px(const FrameCheckScratch& s, int block, double u0, doub
   return double(longest) * block;
 }
 
+// The median of a left-strip block figure over the blocks wholly outside the rut opening [u0, u1]
+// (columns); NaN when there are none. `values` is scratch.
+double outside_median(const std::vector<double>& figure, int block, double u0, double u1, std::vector<float>& values) {
+  values.clear();
+  for (std::size_t b = 0; b < figure.size(); ++b) {
+    const double x0 = double(b) * block, x1 = x0 + block;
+    if (x1 < u0 || x0 > u1) values.push_back(static_cast<float>(figure[b]));
+  }
+  return median_of(values);
+}
+
+// The unmatched blocks inside the rut opening, each left block against the right strip's window at the
+// ground's disparity and at the same columns (ConditionConfig::specular_coherence).
+struct SpecularSums {
+  int blocks = 0;
+  double at_ground = 0, at_ground_sum = 0;  // sum of |left - right| and of left + right, brightness
+  double at_zero = 0, at_zero_sum = 0;
+  double brightest = -1, brightest_texture = 0;  // the block both views see brightest at the same columns
+
+  void add(double left, double right_ground, double right_zero, double left_texture, double right_zero_texture) {
+    ++blocks;
+    at_ground += std::abs(left - right_ground);
+    at_ground_sum += left + right_ground;
+    at_zero += std::abs(left - right_zero);
+    at_zero_sum += left + right_zero;
+    const double both = std::min(left, right_zero);
+    if (both > brightest) {
+      brightest = both;
+      brightest_texture = std::max(left_texture, right_zero_texture);
+    }
+  }
+
+  // ground_brightness, ground_texture: the left strip's medians outside the opening.
+  bool reflects(const ConditionConfig& c, double ground_brightness, double ground_texture) const {
+    if (blocks < c.specular_min_blocks || at_ground_sum <= 0 || at_zero_sum <= 0) return false;
+    const double apart = at_ground / at_ground_sum, together = at_zero / at_zero_sum;
+    return apart >= c.specular_min_disagreement && together < c.specular_coherence * apart &&
+           brightest >= (1.0 + c.specular_brightening) * ground_brightness && brightest_texture >= ground_texture;
+  }
+};
+
 bool depth_found(RutStatus status) {
   return status == RutStatus::Ok || status == RutStatus::Uncertain || status == RutStatus::Vegetation;
 }
@@ -322,6 +363,11 @@ void validate(const ConditionConfig& c) {
   require(c.flat_ratio > 0 && c.flat_ratio < 1, "flat_ratio", "must be within (0, 1)");
   require(c.flat_min_width_mm > 0, "flat_min_width_mm", "must be > 0");
   require(c.flat_min_unseen_mm >= 0, "flat_min_unseen_mm", "must be >= 0");
+  require(c.specular_coherence > 0 && c.specular_coherence <= 1, "specular_coherence", "must be in (0, 1]");
+  require(c.specular_min_disagreement >= 0 && c.specular_min_disagreement < 1, "specular_min_disagreement",
+          "must be in [0, 1)");
+  require(c.specular_brightening >= 0, "specular_brightening", "must be >= 0");
+  require(c.specular_min_blocks >= 1, "specular_min_blocks", "must be >= 1");
   require(c.max_vertical_disparity_px > 0, "max_vertical_disparity_px", "must be > 0");
   require(c.vertical_search_px >= 1 && c.vertical_search_px <= 32, "vertical_search_px", "must be within [1, 32]");
   require(c.vertical_blocks >= 1 && c.vertical_blocks <= 16, "vertical_blocks", "must be within [1, 16]");
@@ -372,6 +418,13 @@ void check_frame(const cv::Mat& left, const cv::Mat& right, const cv::Mat& dispa
     if (std::max(stats[0].saturated, stats[1].saturated) > c.overexposed_fraction)
       m.conditions |= kConditionOverexposed;
 
+    // The rut opening's columns in the left strip, where extract_rut found one (else an empty range).
+    const bool has_opening = rut.has_rut && rut.has_line;
+    const cv::Matx44d& q = geometry.Q();
+    const double f = geometry.focal_px(), cx = -q(0, 3);
+    const auto column = [&](double x) { return cx + f * x / (rut.line_m * x + rut.line_c); };
+    const double u0 = has_opening ? column(rut.left_x_mm) : 0.0, u1 = has_opening ? column(rut.right_x_mm) : -1.0;
+
     // Obstruction: each left block against the right block that sees the same ground.
     const double strip_disparity = median_disparity(disparity, row_begin, row_end, 0, disparity.cols, s.values);
     const double d0 = std::isfinite(strip_disparity)     ? strip_disparity
@@ -393,6 +446,8 @@ void check_frame(const cv::Mat& left, const cv::Mat& right, const cv::Mat& dispa
     column_prefix_sums(right, row_begin, row_end, s.column_sum, s.column_grad2);
     const double window_pixels = double(std::max(1, s.count[1].empty() ? 0 : s.count[1][0]));
     int compared = 0, left_blocked = 0, right_blocked = 0;
+    int inside_left_blocked = 0, inside_right_blocked = 0;  // of those, the blocks inside the rut opening
+    SpecularSums specular;
     for (int b = 0; b < blocks; ++b) {
       // The ground this block sees lies at its own disparity in the right strip (a scene in depth moves
       // each part by its own; the strip's median puts a near object's block beside other ground), at
@@ -416,10 +471,21 @@ void check_frame(const cv::Mat& left, const cv::Mat& right, const cv::Mat& dispa
         return t_other >= c.min_texture && t_self < c.obstruction_ratio * t_other &&
                b_self >= (1.0 + c.veil_brightening) * b_other;
       };
+      const bool inside = (b + 1) * c.block_px > u0 && b * c.block_px < u1;
       if (2 * s.matched[static_cast<std::size_t>(b)] >= s.sampled[static_cast<std::size_t>(b)]) {
-        left_blocked += veiled(tl, tr, bl, br);
-        right_blocked += veiled(tr, tl, br, bl);
+        const bool l = veiled(tl, tr, bl, br), r = veiled(tr, tl, br, bl);
+        left_blocked += l;
+        right_blocked += r;
+        inside_left_blocked += inside && l;
+        inside_right_blocked += inside && r;
         continue;
+      }
+      if (inside) {
+        // The right strip's window at the very columns of this block: where a reflection of the sky
+        // would be (disparity 0).
+        const double b0 = (at(s.column_sum, x0 + c.block_px) - at(s.column_sum, x0)) / window_pixels;
+        const double t0 = std::sqrt((at(s.column_grad2, x0 + c.block_px) - at(s.column_grad2, x0)) / window_pixels);
+        specular.add(bl, br, b0, tl, t0);
       }
       // The texture test only for the dimmer view: the other camera's own blob edge (a steep dark-to-lit
       // step inside its block) must not make this camera's ground look flat by comparison.
@@ -427,8 +493,23 @@ void check_frame(const cv::Mat& left, const cv::Mat& right, const cv::Mat& dispa
         return b_self < c.obstruction_ratio * b_other ||
                (b_self <= b_other && t_other >= c.min_texture && t_self < c.obstruction_ratio * t_other);
       };
-      left_blocked += blocked(tl, tr, bl, br);
-      right_blocked += blocked(tr, tl, br, bl);
+      const bool l = blocked(tl, tr, bl, br), r = blocked(tr, tl, br, bl);
+      left_blocked += l;
+      right_blocked += r;
+      inside_left_blocked += inside && l;
+      inside_right_blocked += inside && r;
+    }
+    // A reflection in a level water surface: the views' disagreement is all inside the rut opening, and
+    // what one camera sees bright there the other sees at the same columns, not at the ground's
+    // disparity. Those blocks are the water's, not a lens's.
+    const bool reflection = has_opening && left_blocked + right_blocked > 0 && left_blocked == inside_left_blocked &&
+                            right_blocked == inside_right_blocked &&
+                            specular.reflects(c, outside_median(s.brightness[0], c.block_px, u0, u1, s.values),
+                                              outside_median(s.texture[0], c.block_px, u0, u1, s.values));
+    if (reflection) {
+      left_blocked = right_blocked = 0;
+      m.conditions |= kConditionWater;
+      bottom_hidden = rut.unseen_depth_mm > c.flat_min_unseen_mm;
     }
     if (compared > 0) {
       m.obstructed_left = double(left_blocked) / compared;
@@ -454,13 +535,6 @@ void check_frame(const cv::Mat& left, const cv::Mat& right, const cv::Mat& dispa
     if (covered_right) m.obstructed_right = 1.0;
     if (m.obstructed_left >= c.obstruction_min_fraction) m.conditions |= kConditionLeftObstructed;
     if (m.obstructed_right >= c.obstruction_min_fraction) m.conditions |= kConditionRightObstructed;
-
-    // The rut opening's columns in the left strip, where extract_rut found one (else an empty range).
-    const bool has_opening = rut.has_rut && rut.has_line;
-    const cv::Matx44d& q = geometry.Q();
-    const double f = geometry.focal_px(), cx = -q(0, 3);
-    const auto column = [&](double x) { return cx + f * x / (rut.line_m * x + rut.line_c); };
-    const double u0 = has_opening ? column(rut.left_x_mm) : 0.0, u1 = has_opening ? column(rut.right_x_mm) : -1.0;
 
     // Vegetation: textured in both cameras, yet unmatched; judged outside the rut opening, where the
     // tyre has not flattened it (inside, DIC also loses steep rut walls, foreshortened differently in
@@ -495,12 +569,7 @@ void check_frame(const cv::Mat& left, const cv::Mat& right, const cv::Mat& dispa
 
     // Water / flat patch inside the rut opening, against the texture of the ground outside it.
     if (has_opening) {
-      s.values.clear();
-      for (int b = 0; b < blocks; ++b) {
-        const double x0 = b * c.block_px, x1 = x0 + c.block_px;
-        if (x1 < u0 || x0 > u1) s.values.push_back(static_cast<float>(s.texture[0][static_cast<std::size_t>(b)]));
-      }
-      const double ground = median_of(s.values);
+      const double ground = outside_median(s.texture[0], c.block_px, u0, u1, s.values);
       const double z = rut.line_m * 0.5 * (rut.left_x_mm + rut.right_x_mm) + rut.line_c;
       if (std::isfinite(ground) && z > 0) {
         const double run_mm = unseen_flat_run_px(s, c.block_px, u0, u1, shift, c.flat_ratio * ground) * z / f;

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <limits>
 #include <random>
+#include <tuple>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -389,6 +390,80 @@ TEST(FrameChecks, FlatUnmatchedPatchInTheRutHidesTheBottomWhereTheWallsDescend) 
   rut.left_x_mm = 60;
   rut.right_x_mm = 120;
   EXPECT_FALSE(check(s, {}, 0, rut).conditions & kConditionWater);
+}
+
+// Water over left columns 264-376 in the rut opening (dark, unmatched: each view sees its own ripples
+// over the bottom, as textured as the ground, so that no flat patch finds it), and glints of the sun on
+// it: bright, striped patches (ripple facets) over left columns 280-312 and over right columns
+// 280 + glint_shift .. 312 + glint_shift, each view its own stripes. The sun is at infinity, so its
+// reflection lies at disparity 0: glint_shift 0 is what cameras see; the right view's water lies
+// kDisparity px left of the left's.
+Strips glinting_water(int glint_shift, double glint = 190, double stripe = 50, int glint_end = 312) {
+  Strips s(120, 25);
+  const int u0 = 264, u1 = 376;
+  const Strips left_ripples(40, 25, 5), right_ripples(40, 25, 7);
+  left_ripples.left.colRange(u0, u1).copyTo(s.left.colRange(u0, u1));
+  right_ripples.left.colRange(u0, u1).copyTo(s.right.colRange(u0 - kDisparity, u1 - kDisparity));
+  s.disparity.colRange(u0, u1).setTo(std::numeric_limits<float>::quiet_NaN());
+  const auto stripes = [glint, stripe](cv::Mat& view, int x0, int x1, int phase) {
+    for (int y = 0; y < view.rows; ++y)
+      for (int x = x0; x < x1; ++x)
+        view.at<std::uint8_t>(y, x) =
+            cv::saturate_cast<std::uint8_t>(glint + ((x + y / 3 + phase) / 2 % 2 ? stripe : -stripe));
+  };
+  stripes(s.left, 280, glint_end, 0);
+  stripes(s.right, 280 + glint_shift, glint_end + glint_shift, 1);
+  return s;
+}
+
+RutGeometry opening_over_water() {  // ground 400 mm away; X -40..40 mm: columns 249.5..389.5
+  RutGeometry rut;
+  rut.has_line = rut.has_rut = true;
+  rut.line_c = 400;
+  rut.left_x_mm = -40;
+  rut.right_x_mm = 40;
+  rut.unseen_depth_mm = 6;  // the walls descend into the water
+  return rut;
+}
+
+TEST(FrameChecks, GlintsBothViewsSeeAtTheSameColumnsAreWaterNotALens) {
+  RutGeometry rut = opening_over_water();
+  const RutMeasurement glints = check(glinting_water(0), {}, 0, rut);
+  EXPECT_TRUE(glints.conditions & kConditionWater) << int(glints.conditions);
+  EXPECT_EQ(glints.conditions & kLens, 0) << int(glints.conditions);
+  EXPECT_EQ(glints.status, RutStatus::BottomNotSeen) << to_string(glints.status);
+  // Without the reflection rule the same views are an obstructed lens: the test sees the rule work.
+  ConditionConfig off;
+  off.specular_min_blocks = 1000;
+  const RutMeasurement lens = check(glinting_water(0), off, 0, rut);
+  EXPECT_TRUE(lens.conditions & kLens) << int(lens.conditions);
+  EXPECT_EQ(lens.status, RutStatus::LensObstructed) << to_string(lens.status);
+  // Bright patches at neither the ground's disparity nor 0 reflect nothing at infinity (the right view's
+  // 40 px right of the left's, 64 px wide: they overlap by 24 px at disparity 0).
+  const RutMeasurement elsewhere = check(glinting_water(40, 190, 50, 344), {}, 0, rut);
+  EXPECT_FALSE(elsewhere.conditions & kConditionWater) << int(elsewhere.conditions);
+  EXPECT_TRUE(elsewhere.conditions & kLens) << int(elsewhere.conditions);
+  // Glints and a blob on a lens outside the rut: the lens is obstructed.
+  Strips blob = glinting_water(0);
+  blob.right.colRange(480, 560).setTo(8);
+  blob.disparity.colRange(480 + kDisparity, 560 + kDisparity).setTo(std::numeric_limits<float>::quiet_NaN());
+  const RutMeasurement both = check(blob, {}, 0, rut);
+  EXPECT_TRUE(both.conditions & kConditionRightObstructed) << int(both.conditions);
+  EXPECT_EQ(both.status, RutStatus::LensObstructed) << to_string(both.status);
+  // The same dirt on both lenses at the same columns agrees at disparity 0 too, but is no glint: mud is
+  // dark, frost or snow out of focus is smooth, and a patch no brighter than the ground is no sun.
+  for (const auto& [name, glint, stripe] :
+       {std::tuple{"mud", 10.0, 0.0}, {"frost", 200.0, 0.0}, {"dim", 120.0, 50.0}}) {
+    const RutMeasurement dirt = check(glinting_water(0, glint, stripe), {}, 0, rut);
+    EXPECT_FALSE(dirt.conditions & kConditionWater) << name << " " << int(dirt.conditions);
+    EXPECT_TRUE(dirt.conditions & kLens) << name << " " << int(dirt.conditions);
+  }
+  // Nor is it water where the rut is elsewhere: a lens puts its blobs anywhere.
+  rut.left_x_mm = 60;
+  rut.right_x_mm = 120;
+  const RutMeasurement away = check(glinting_water(0), {}, 0, rut);
+  EXPECT_FALSE(away.conditions & kConditionWater) << int(away.conditions);
+  EXPECT_TRUE(away.conditions & kLens) << int(away.conditions);
 }
 
 // Every third block unmatched in strips whose texture is `deviation` grey levels; the cameras' read noise

@@ -76,6 +76,21 @@ struct ConditionConfig {
   double flat_ratio = 0.5;
   double flat_min_width_mm = 8.0;
   double flat_min_unseen_mm = 1.0;
+  // Water seen by its reflection: the sun and sky reflected in a level surface lie at infinity, so each
+  // camera sees them at the same columns (disparity 0), not where it sees the ground below, and the
+  // ripples that break them up into glints send each camera other ones. A lens blob sits where the lens
+  // puts it, over the rut or not. So where every obstructed block (as above) lies inside the rut
+  // opening, over the unmatched blocks there (at least specular_min_blocks): the views disagree at the
+  // ground's disparity (sum of |left - right| brightness over the sum of both, at least
+  // specular_min_disagreement), agree at the same columns (the same share, under specular_coherence of
+  // that at the ground's), and the block both views see brightest at the same columns is brighter than
+  // the ground outside the rut by specular_brightening (a share) and at least as textured (a glint, not
+  // the same dark or smooth dirt on both lenses): Water, the lens flags not raised, and the bottom hidden
+  // where the walls descend into the unmatched part (flat_min_unseen_mm).
+  double specular_coherence = 0.6;
+  double specular_min_disagreement = 0.2;
+  double specular_brightening = 0.3;
+  int specular_min_blocks = 3;
   // Calibration: the vertical offset of the right strip's features against the left's, measured by
   // normalised cross-correlation of vertical_blocks blocks spread over the middle 60 % of the strip,
   // over +-vertical_search_px rows (sub-pixel by a parabola). Rectification leaves a few hundredths of
