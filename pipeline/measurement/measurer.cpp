@@ -216,7 +216,10 @@ void StereoMeasurer::read_strips_together(FrameWork& w, const RutWorkspace& work
         depths[n++] = {g.depth_mm, g.depth_uncertainty_mm};
     }
   }
-  if (n < 3 || !usable(m.depth_uncertainty_mm)) return refuse();
+  // A depth the low-texture reading alone found needs both guards; one found Uncertain by the first
+  // reading, whose noise estimate holds, one guard at least (a guard in a gap or at the image's edge
+  // need not cost the frame).
+  if (n < (confirm ? 3u : 2u) || !usable(m.depth_uncertainty_mm)) return refuse();
   double sw = 0.0, swd = 0.0;
   for (std::size_t i = 0; i < n; ++i) {
     const double wt = 1.0 / (depths[i].second * depths[i].second);
@@ -226,15 +229,17 @@ void StereoMeasurer::read_strips_together(FrameWork& w, const RutWorkspace& work
   const double mean = swd / sw, u = 1.0 / std::sqrt(sw);
   double chi2 = 0.0;
   for (std::size_t i = 0; i < n; ++i) chi2 += std::pow((depths[i].first - mean) / depths[i].second, 2);
-  // The strips agree as their uncertainties say (chi-square of 2 degrees of freedom under its 95th
+  // The strips agree as their uncertainties say (chi-square of n - 1 degrees of freedom under its 95th
   // percentile), and together they are precise enough.
-  if (!(chi2 <= 5.99) || !(u <= limit)) return refuse();
+  const double chi2_95 = n == 2 ? 3.84 : 5.99;
+  if (!(chi2 <= chi2_95) || !(u <= limit)) return refuse();
   m.depth_mm = mean;
   m.depth_uncertainty_mm = u;
   m.status = RutStatus::Ok;
   m.conditions = 0;
   m.quality = depth_quality(u, limit);
   w.diag.strips_together = true;
+  w.diag.strips_read = static_cast<int>(n);
 }
 
 MatchContext StereoMeasurer::make_match_context() const {

@@ -224,7 +224,8 @@ TEST(GuardStrips, AskedWithinGuardAfterWaterOfAFrameFlaggedWater) {
 
 // Low-texture snow (the scene matrix's clean-manual-snow-34: texture about the sensor's noise): the strip
 // alone leaves several depths UNCERTAIN for their noise. With the defaults such a frame is measured on the
-// guard strips too, and where the three depths agree as their uncertainties say, their weighted mean is
+// guard strips too, and where the three depths (or two: ANoisyDepthIsReadWithTheOneGuardThatFoundIt) agree
+// as their uncertainties say, their weighted mean is
 // published OK with their combined uncertainty. Against the renderer's truth: every depth published OK is
 // within 1 mm, frames read together are within the limit, and at least three frames gain a depth.
 TEST(GuardStrips, ANoisyDepthIsReadOnTheThreeStripsTogether) {
@@ -260,6 +261,33 @@ TEST(GuardStrips, ANoisyDepthIsReadOnTheThreeStripsTogether) {
   }
   EXPECT_EQ(checked, 8);
   EXPECT_GE(together, 3) << "the scene no longer tests reading the strips together";
+}
+
+// Snow under auto exposure (the scene matrix's clean-auto-snow-10): on frames 4 and 5 one guard strip
+// finds no usable depth (its uncertainty over three times the limit), and the strip's UNCERTAIN depth is
+// read with the other guard alone (chi-square of one degree of freedom). Every depth published OK is
+// within 1 mm of the truth (measure_both); at least one frame is read on two strips.
+TEST(GuardStrips, ANoisyDepthIsReadWithTheOneGuardThatFoundIt) {
+  const SyntheticRenderer renderer(
+      scene("--texture snow --depth 40.9 --width 254 --bottom-width 113 --pile-left 6.7 --pile-right 15.5 --offset 37 "
+            "--baseline 92 --height 489 --hfov 90 --roll 3.7 --pitch -1.2 --noise 1.74 --speed 667 "
+            "--right-response 1.020 --seed 2010 --wander 25 --wander-wavelength 961 --auto-exposure --ae-target 0.53 "
+            "--light 1.27"));
+  StereoMeasurer alone(renderer.calibration(), strip_alone());
+  StereoMeasurer by_default(renderer.calibration(), MeasurerConfig{});
+  const double limit = MeasurerConfig{}.rut.max_depth_uncertainty_mm;
+  int two = 0, checked = 0;
+  for (std::uint64_t i = 0; i < 6; ++i) {
+    const auto [frame, a, d, truth] = measure_both(renderer, i, alone, by_default);
+    ++checked;
+    if (!by_default.diagnostics().strips_together || by_default.diagnostics().strips_read != 2) continue;
+    ++two;
+    EXPECT_EQ(a.status, RutStatus::Uncertain) << "frame " << i;
+    EXPECT_EQ(d.status, RutStatus::Ok) << "frame " << i;
+    EXPECT_LE(d.depth_uncertainty_mm, limit) << "frame " << i;
+  }
+  EXPECT_EQ(checked, 6);
+  EXPECT_GE(two, 1) << "no frame read on two strips: the scene no longer tests it";
 }
 
 // Dust on both lenses over low-texture snow (the scene matrix's lens-dust-both-snow): on some frames the

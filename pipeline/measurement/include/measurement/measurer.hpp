@@ -134,6 +134,7 @@ struct MeasurementDiagnostics {
   bool gaps_read = false;  // the gaps were read with wider windows (MeasurerConfig::gap_fill_half_window), in rut_ms
   bool low_texture_read = false;  // read again with the noise judging the correlation (read_low_texture), in rut_ms
   bool strips_together = false;   // an Uncertain depth published from the strip and its guards (read_strips_together)
+  int strips_read = 0;            // ... from how many strips: the strip and one or both guards
 };
 
 // Everything one pair needs on its way through the stages. Frame pools hold these; every buffer is
@@ -247,12 +248,13 @@ class StereoMeasurer {
   // refused where one finds water; the frames flagged Water are remembered in `workspace`.
   void check_guards(FrameWork& w, RutWorkspace& workspace) const;
   // A depth Uncertain for its noise alone (low texture against the sensor's noise: snow, dim light under
-  // auto gain), away from water, measured again on the guard strips: where the three depths agree as their
-  // uncertainties say (chi-square under 5.99, 2 degrees of freedom), each within 3 times
-  // RutConfig::max_depth_uncertainty_mm, and their combined uncertainty is within it, their weighted mean
+  // auto gain), away from water, measured again on the guard strips: where the strip's depth and those of
+  // one or both guards, each within 3 times RutConfig::max_depth_uncertainty_mm, agree as their
+  // uncertainties say (chi-square under its 95th percentile: 3.84 for one degree of freedom, 5.99 for
+  // two), and their combined uncertainty is within it, their weighted mean
   // (1/u^2) is published OK with that uncertainty. The section and geometry stay the strip's. The rut is
   // one along the half of the image they span; strips that disagree leave it Uncertain. A depth Ok only by
-  // read_low_texture is measured so too, and refused Uncertain where the strips do not confirm it.
+  // read_low_texture is measured so too, and refused Uncertain where both guards do not confirm it.
   void read_strips_together(FrameWork& w, const RutWorkspace& workspace) const;
   // Whether one of `depths` (depth, standard uncertainty, mm: the strip's and its guards' OK depths)
   // lies at the level of a lid that this strip or a guard found within memory_s and another of them
