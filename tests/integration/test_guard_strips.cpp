@@ -5,6 +5,8 @@
 // default they are asked only within guard_after_water_s of a frame flagged Water, so that dry ground
 // costs nothing, while a lid the strip misses between frames that saw its water is still refused. A depth
 // UNCERTAIN for its noise alone is read on the three strips together where they agree.
+#include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <stdexcept>
@@ -222,6 +224,46 @@ TEST(GuardStrips, AskedWithinGuardAfterWaterOfAFrameFlaggedWater) {
   EXPECT_EQ(refused, wrong_alone);
 }
 
+// Measures frames 0..frames-1 of a scene with the strip alone and with the defaults. A frame read on the
+// strips together was UNCERTAIN alone and is OK by default, with no condition, both guards measured, and
+// a combined uncertainty within the limit and below the strip's own; any other frame keeps the strip's
+// own reading. Every depth published OK is within 1 mm of the truth (measure_both). Returns how many
+// frames were read on 2 and on 3 strips (indices 2 and 3).
+std::array<int, 4> read_together(const char* options, std::uint64_t frames) {
+  const SyntheticRenderer renderer(scene(options));
+  StereoMeasurer alone(renderer.calibration(), strip_alone());
+  StereoMeasurer by_default(renderer.calibration(), MeasurerConfig{});
+  const double limit = MeasurerConfig{}.rut.max_depth_uncertainty_mm;
+  std::array<int, 4> read{};
+  std::uint64_t checked = 0;
+  for (std::uint64_t i = 0; i < frames; ++i) {
+    const auto [frame, a, d, truth] = measure_both(renderer, i, alone, by_default);
+    ++checked;
+    const MeasurementDiagnostics& diag = by_default.diagnostics();
+    std::printf(
+        "frame %llu: strip alone %s %.2f mm (u %.2f), by default %s %.2f mm (u %.2f, strips read %d), truth %.2f\n",
+        static_cast<unsigned long long>(i), std::string(to_string(a.status)).c_str(), a.depth_mm,
+        a.depth_uncertainty_mm, std::string(to_string(d.status)).c_str(), d.depth_mm, d.depth_uncertainty_mm,
+        diag.strips_together ? diag.strips_read : 1, truth);
+    if (!diag.strips_together) {
+      // Not read together: the strip's own reading, whatever it was.
+      EXPECT_EQ(d.status, a.status) << "frame " << i;
+      EXPECT_DOUBLE_EQ(d.depth_mm, a.depth_mm) << "frame " << i;
+      continue;
+    }
+    EXPECT_TRUE(diag.strips_read == 2 || diag.strips_read == 3) << "frame " << i << ": " << diag.strips_read;
+    ++read[static_cast<std::size_t>(std::clamp(diag.strips_read, 0, 3))];
+    EXPECT_EQ(a.status, RutStatus::Uncertain) << "frame " << i;
+    EXPECT_EQ(d.status, RutStatus::Ok) << "frame " << i;
+    EXPECT_EQ(d.conditions, 0U) << "frame " << i;
+    EXPECT_EQ(diag.guard_strips, 2) << "frame " << i;
+    EXPECT_LE(d.depth_uncertainty_mm, limit) << "frame " << i;
+    EXPECT_LT(d.depth_uncertainty_mm, a.depth_uncertainty_mm) << "frame " << i;
+  }
+  EXPECT_EQ(checked, frames);
+  return read;
+}
+
 // Low-texture snow (the scene matrix's clean-manual-snow-34: texture about the sensor's noise): the strip
 // alone leaves several depths UNCERTAIN for their noise. With the defaults such a frame is measured on the
 // guard strips too, and where the three depths (or two: ANoisyDepthIsReadWithTheOneGuardThatFoundIt) agree
@@ -229,38 +271,12 @@ TEST(GuardStrips, AskedWithinGuardAfterWaterOfAFrameFlaggedWater) {
 // published OK with their combined uncertainty. Against the renderer's truth: every depth published OK is
 // within 1 mm, frames read together are within the limit, and at least three frames gain a depth.
 TEST(GuardStrips, ANoisyDepthIsReadOnTheThreeStripsTogether) {
-  const SyntheticRenderer renderer(
-      scene("--texture snow --depth 33.5 --width 159 --bottom-width 48 --pile-left 0.0 --pile-right 5.8 --offset -13 "
-            "--baseline 43 --height 495 --hfov 90 --roll -0.8 --pitch -4.4 --noise 1.05 --speed 1494 "
-            "--right-response 0.974 --seed 2034 --exposure 0.71"));
-  StereoMeasurer alone(renderer.calibration(), strip_alone());
-  StereoMeasurer by_default(renderer.calibration(), MeasurerConfig{});
-  const double limit = MeasurerConfig{}.rut.max_depth_uncertainty_mm;
-  int together = 0, checked = 0;
-  for (std::uint64_t i = 0; i < 8; ++i) {
-    const auto [frame, a, d, truth] = measure_both(renderer, i, alone, by_default);
-    ++checked;
-    std::printf(
-        "frame %llu: strip alone %s %.2f mm (u %.2f), by default %s %.2f mm (u %.2f, together %d), truth %.2f\n",
-        static_cast<unsigned long long>(i), std::string(to_string(a.status)).c_str(), a.depth_mm,
-        a.depth_uncertainty_mm, std::string(to_string(d.status)).c_str(), d.depth_mm, d.depth_uncertainty_mm,
-        by_default.diagnostics().strips_together ? 1 : 0, truth);
-    if (!by_default.diagnostics().strips_together) {
-      // Not read together: the strip's own reading, whatever it was.
-      EXPECT_EQ(d.status, a.status) << "frame " << i;
-      EXPECT_DOUBLE_EQ(d.depth_mm, a.depth_mm) << "frame " << i;
-      continue;
-    }
-    ++together;
-    EXPECT_EQ(a.status, RutStatus::Uncertain) << "frame " << i;
-    EXPECT_EQ(d.status, RutStatus::Ok) << "frame " << i;
-    EXPECT_EQ(d.conditions, 0U) << "frame " << i;
-    EXPECT_EQ(by_default.diagnostics().guard_strips, 2) << "frame " << i;
-    EXPECT_LE(d.depth_uncertainty_mm, limit) << "frame " << i;
-    EXPECT_LT(d.depth_uncertainty_mm, a.depth_uncertainty_mm) << "frame " << i;
-  }
-  EXPECT_EQ(checked, 8);
-  EXPECT_GE(together, 3) << "the scene no longer tests reading the strips together";
+  const std::array<int, 4> read = read_together(
+      "--texture snow --depth 33.5 --width 159 --bottom-width 48 --pile-left 0.0 --pile-right 5.8 --offset -13 "
+      "--baseline 43 --height 495 --hfov 90 --roll -0.8 --pitch -4.4 --noise 1.05 --speed 1494 "
+      "--right-response 0.974 --seed 2034 --exposure 0.71",
+      8);
+  EXPECT_GE(read[3], 3) << "the scene no longer tests reading the three strips together";
 }
 
 // Snow under auto exposure (the scene matrix's clean-auto-snow-10): on frames 4 and 5 one guard strip
@@ -268,26 +284,13 @@ TEST(GuardStrips, ANoisyDepthIsReadOnTheThreeStripsTogether) {
 // read with the other guard alone (chi-square of one degree of freedom). Every depth published OK is
 // within 1 mm of the truth (measure_both); at least one frame is read on two strips.
 TEST(GuardStrips, ANoisyDepthIsReadWithTheOneGuardThatFoundIt) {
-  const SyntheticRenderer renderer(
-      scene("--texture snow --depth 40.9 --width 254 --bottom-width 113 --pile-left 6.7 --pile-right 15.5 --offset 37 "
-            "--baseline 92 --height 489 --hfov 90 --roll 3.7 --pitch -1.2 --noise 1.74 --speed 667 "
-            "--right-response 1.020 --seed 2010 --wander 25 --wander-wavelength 961 --auto-exposure --ae-target 0.53 "
-            "--light 1.27"));
-  StereoMeasurer alone(renderer.calibration(), strip_alone());
-  StereoMeasurer by_default(renderer.calibration(), MeasurerConfig{});
-  const double limit = MeasurerConfig{}.rut.max_depth_uncertainty_mm;
-  int two = 0, checked = 0;
-  for (std::uint64_t i = 0; i < 6; ++i) {
-    const auto [frame, a, d, truth] = measure_both(renderer, i, alone, by_default);
-    ++checked;
-    if (!by_default.diagnostics().strips_together || by_default.diagnostics().strips_read != 2) continue;
-    ++two;
-    EXPECT_EQ(a.status, RutStatus::Uncertain) << "frame " << i;
-    EXPECT_EQ(d.status, RutStatus::Ok) << "frame " << i;
-    EXPECT_LE(d.depth_uncertainty_mm, limit) << "frame " << i;
-  }
-  EXPECT_EQ(checked, 6);
-  EXPECT_GE(two, 1) << "no frame read on two strips: the scene no longer tests it";
+  const std::array<int, 4> read = read_together(
+      "--texture snow --depth 40.9 --width 254 --bottom-width 113 --pile-left 6.7 --pile-right 15.5 --offset 37 "
+      "--baseline 92 --height 489 --hfov 90 --roll 3.7 --pitch -1.2 --noise 1.74 --speed 667 "
+      "--right-response 1.020 --seed 2010 --wander 25 --wander-wavelength 961 --auto-exposure --ae-target 0.53 "
+      "--light 1.27",
+      6);
+  EXPECT_GE(read[2], 1) << "no frame read on two strips: the scene no longer tests it";
 }
 
 // Dust on both lenses over low-texture snow (the scene matrix's lens-dust-both-snow): on some frames the
