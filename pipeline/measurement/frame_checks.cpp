@@ -8,6 +8,7 @@
 #include <limits>
 #include <stdexcept>
 #include <string>
+#include <utility>
 
 #include <opencv2/imgproc.hpp>
 
@@ -445,8 +446,16 @@ void check_frame(const cv::Mat& left, const cv::Mat& right, const cv::Mat& dispa
     // over the rows block_stats sampled.
     column_prefix_sums(right, row_begin, row_end, s.column_sum, s.column_grad2);
     const double window_pixels = double(std::max(1, s.count[1].empty() ? 0 : s.count[1][0]));
+    const auto at = [](const std::vector<double>& v, int i) { return v[static_cast<std::size_t>(i)]; };
+    // The right strip's mean brightness and texture over the block-wide window from column x.
+    const auto right_window = [&](int x) {
+      return std::pair{(at(s.column_sum, x + c.block_px) - at(s.column_sum, x)) / window_pixels,
+                       std::sqrt((at(s.column_grad2, x + c.block_px) - at(s.column_grad2, x)) / window_pixels)};
+    };
+    // The ground's texture outside the rut opening (NaN without one): the reflection's and the water's.
+    const double ground_texture = has_opening ? outside_median(s.texture[0], c.block_px, u0, u1, s.values) : kNaN;
     int compared = 0, left_blocked = 0, right_blocked = 0;
-    int inside_left_blocked = 0, inside_right_blocked = 0;  // of those, the blocks inside the rut opening
+    int outside_blocked = 0;  // blocks outside the rut opening obstructed in either view
     SpecularSums specular;
     for (int b = 0; b < blocks; ++b) {
       // The ground this block sees lies at its own disparity in the right strip (a scene in depth moves
@@ -458,11 +467,8 @@ void check_frame(const cv::Mat& left, const cv::Mat& right, const cv::Mat& dispa
       const int rx0 = x0 - static_cast<int>(std::lround(d));
       if (rx0 < 0 || rx0 + c.block_px > right.cols) continue;
       ++compared;
-      const auto at = [](const std::vector<double>& v, int i) { return v[static_cast<std::size_t>(i)]; };
-      const double tl = s.texture[0][static_cast<std::size_t>(b)],
-                   tr = std::sqrt((at(s.column_grad2, rx0 + c.block_px) - at(s.column_grad2, rx0)) / window_pixels);
-      const double bl = s.brightness[0][static_cast<std::size_t>(b)],
-                   br = (at(s.column_sum, rx0 + c.block_px) - at(s.column_sum, rx0)) / window_pixels;
+      const double tl = s.texture[0][static_cast<std::size_t>(b)], bl = s.brightness[0][static_cast<std::size_t>(b)];
+      const auto [br, tr] = right_window(rx0);
       // A block that matched saw the same texture through both lenses: no blob covers it (what differs
       // then is mostly the scene: a surface lit or seen differently from the two viewpoints). Only a veil
       // (frost, snow, a film lit from the side) lets the ground through to be matched, and the camera
@@ -472,19 +478,19 @@ void check_frame(const cv::Mat& left, const cv::Mat& right, const cv::Mat& dispa
                b_self >= (1.0 + c.veil_brightening) * b_other;
       };
       const bool inside = (b + 1) * c.block_px > u0 && b * c.block_px < u1;
+      const auto count = [&](bool left_obstructed, bool right_obstructed) {
+        left_blocked += left_obstructed;
+        right_blocked += right_obstructed;
+        outside_blocked += !inside && (left_obstructed || right_obstructed);
+      };
       if (2 * s.matched[static_cast<std::size_t>(b)] >= s.sampled[static_cast<std::size_t>(b)]) {
-        const bool l = veiled(tl, tr, bl, br), r = veiled(tr, tl, br, bl);
-        left_blocked += l;
-        right_blocked += r;
-        inside_left_blocked += inside && l;
-        inside_right_blocked += inside && r;
+        count(veiled(tl, tr, bl, br), veiled(tr, tl, br, bl));
         continue;
       }
       if (inside) {
         // The right strip's window at the very columns of this block: where a reflection of the sky
         // would be (disparity 0).
-        const double b0 = (at(s.column_sum, x0 + c.block_px) - at(s.column_sum, x0)) / window_pixels;
-        const double t0 = std::sqrt((at(s.column_grad2, x0 + c.block_px) - at(s.column_grad2, x0)) / window_pixels);
+        const auto [b0, t0] = right_window(x0);
         specular.add(bl, br, b0, tl, t0);
       }
       // The texture test only for the dimmer view: the other camera's own blob edge (a steep dark-to-lit
@@ -493,19 +499,14 @@ void check_frame(const cv::Mat& left, const cv::Mat& right, const cv::Mat& dispa
         return b_self < c.obstruction_ratio * b_other ||
                (b_self <= b_other && t_other >= c.min_texture && t_self < c.obstruction_ratio * t_other);
       };
-      const bool l = blocked(tl, tr, bl, br), r = blocked(tr, tl, br, bl);
-      left_blocked += l;
-      right_blocked += r;
-      inside_left_blocked += inside && l;
-      inside_right_blocked += inside && r;
+      count(blocked(tl, tr, bl, br), blocked(tr, tl, br, bl));
     }
     // A reflection in a level water surface: the views' disagreement is all inside the rut opening, and
     // what one camera sees bright there the other sees at the same columns, not at the ground's
     // disparity. Those blocks are the water's, not a lens's.
-    const bool reflection = has_opening && left_blocked + right_blocked > 0 && left_blocked == inside_left_blocked &&
-                            right_blocked == inside_right_blocked &&
-                            specular.reflects(c, outside_median(s.brightness[0], c.block_px, u0, u1, s.values),
-                                              outside_median(s.texture[0], c.block_px, u0, u1, s.values));
+    const bool reflection =
+        has_opening && left_blocked + right_blocked > 0 && outside_blocked == 0 &&
+        specular.reflects(c, outside_median(s.brightness[0], c.block_px, u0, u1, s.values), ground_texture);
     if (reflection) {
       left_blocked = right_blocked = 0;
       m.conditions |= kConditionWater;
@@ -569,10 +570,9 @@ void check_frame(const cv::Mat& left, const cv::Mat& right, const cv::Mat& dispa
 
     // Water / flat patch inside the rut opening, against the texture of the ground outside it.
     if (has_opening) {
-      const double ground = outside_median(s.texture[0], c.block_px, u0, u1, s.values);
       const double z = rut.line_m * 0.5 * (rut.left_x_mm + rut.right_x_mm) + rut.line_c;
-      if (std::isfinite(ground) && z > 0) {
-        const double run_mm = unseen_flat_run_px(s, c.block_px, u0, u1, shift, c.flat_ratio * ground) * z / f;
+      if (std::isfinite(ground_texture) && z > 0) {
+        const double run_mm = unseen_flat_run_px(s, c.block_px, u0, u1, shift, c.flat_ratio * ground_texture) * z / f;
         // The patch hides the bottom only where the profile's walls still descend into it; flanked by
         // bottom seen level on both sides (a smooth patch of mud, tread marks), the bottom is measured.
         if (run_mm >= c.flat_min_width_mm && rut.unseen_depth_mm > c.flat_min_unseen_mm) {
