@@ -44,6 +44,7 @@ struct FrameOutcome {
   RutMeasurement m;
   RutTruth truth;
   CameraSettings settings;
+  WaterRule water_rule = WaterRule::None;  // the rule that flagged it Water
 };
 
 struct SceneOutcome {
@@ -109,6 +110,7 @@ SceneOutcome measure_scene(const MatrixScene& scene, const BenchScenesOptions& o
     f.index = static_cast<std::uint64_t>(i);
     f.settings = renderer.render(f.index, frame);
     f.m = measurer.measure(frame.left, frame.right, frame.skew_ns, frame.t_ns);
+    f.water_rule = measurer.diagnostics().water_rule;
     f.truth = renderer.truth(f.index);
     const double error = std::abs(f.m.depth_mm - f.truth.depth_mm);
     if (f.m.status == RutStatus::Ok) {
@@ -177,11 +179,14 @@ void print_json(const MatrixScene& scene, const SceneOutcome& s) {
   for (const FrameOutcome& f : s.frames) {
     frames += fmt::format(
         "{}{{\"index\":{},\"status\":{},\"depth_mm\":{},\"truth_mm\":{},\"error_mm\":{},\"uncertainty_mm\":{},"
-        "\"conditions\":{},\"water_depth_mm\":{},\"waterline_depth_mm\":{},\"exposure\":{},\"gain\":{}}}",
+        "\"conditions\":{},\"water_rule\":{},\"water_depth_mm\":{},\"waterline_depth_mm\":{},\"exposure\":{},"
+        "\"gain\":{}}}",
         frames.size() > 1 ? "," : "", f.index, json_string(std::string(to_string(f.m.status))),
         json_number(f.m.depth_mm), json_number(f.truth.depth_mm), json_number(f.m.depth_mm - f.truth.depth_mm),
-        json_number(f.m.depth_uncertainty_mm), json_conditions(f.m.conditions), json_number(f.truth.water_depth_mm),
-        json_number(f.truth.waterline_depth_mm), json_number(f.settings.exposure), json_number(f.settings.gain));
+        json_number(f.m.depth_uncertainty_mm), json_conditions(f.m.conditions),
+        f.water_rule == WaterRule::None ? std::string("null") : json_string(water_rule_name(f.water_rule)),
+        json_number(f.truth.water_depth_mm), json_number(f.truth.waterline_depth_mm), json_number(f.settings.exposure),
+        json_number(f.settings.gain));
   }
   frames += "]";
   std::printf(

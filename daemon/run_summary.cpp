@@ -15,6 +15,7 @@ void RunSummary::add(const RutMeasurement& m, const MeasurementDiagnostics& d) {
   if (d.guard_water) ++guard_refused_;
   if (d.gaps_read) ++gaps_read_;
   if (d.low_texture_read) ++low_texture_read_;
+  if (const auto r = static_cast<std::size_t>(d.water_rule); r > 0 && r < by_water_rule_.size()) ++by_water_rule_[r];
   rectify_ms_ += d.rectify_ms;
   band_ms_ += d.band_ms;
   disparity_ms_ += d.disparity_ms;
@@ -33,6 +34,13 @@ void RunSummary::log() const {
     statuses += std::string(to_string(static_cast<RutStatus>(i))) + " " + std::to_string(by_status_[i]);
   }
   if (guard_refused_ > 0) statuses += " (" + std::to_string(guard_refused_) + " of them by a guard strip's water)";
+  std::string water;
+  for (std::size_t r = 1; r < by_water_rule_.size(); ++r) {
+    if (by_water_rule_[r] == 0) continue;
+    water += (water.empty() ? "" : ", ") + std::string(water_rule_name(static_cast<WaterRule>(r))) + " " +
+             std::to_string(by_water_rule_[r]);
+  }
+  if (!water.empty()) statuses += "; flagged Water by " + water;
   if (gaps_read_ > 0) statuses += "; gaps read again with wider windows on " + std::to_string(gaps_read_) + " pairs";
   if (low_texture_read_ > 0)
     statuses += "; read again with the noise judging the windows on " + std::to_string(low_texture_read_) + " pairs";

@@ -169,6 +169,7 @@ void StereoMeasurer::check_guards(FrameWork& w, RutWorkspace& workspace) const {
   // so, each strip having found the lid once, none twice running).
   if (refused || at_lid_of_two_strips(workspace, w.frame.t_ns, {depths.data(), n})) {
     w.diag.guard_water = true;
+    w.diag.water_rule = WaterRule::GuardStrip;
     m.conditions |= kConditionWater;
     m.status = RutStatus::BottomNotSeen;
     note_water(m, w.frame.t_ns, workspace);
@@ -639,6 +640,7 @@ void StereoMeasurer::read_through_water(FrameWork& w, RutWorkspace& workspace, c
   // floating debris at that level.
   if (lid.found || lid.other_material || lid.brighter_all_round) {
     refuse_as_lid(m, workspace.geometry, lid);
+    w.diag.water_rule = WaterRule::Lid;
     workspace.last_waterline = WaterlineMemory{};
     workspace.last_lid = lid_found(workspace.last_lid, w.frame.t_ns, lid.level_mm, lid_u, c);
     return;
@@ -657,12 +659,14 @@ void StereoMeasurer::read_through_water(FrameWork& w, RutWorkspace& workspace, c
   // profile whose deepest point lies at its level, however narrow its level span and faint its steps.
   if (recalls_lid(last_lid, lid, lid_u, w.frame.t_ns, c)) {
     refuse_as_lid(m, workspace.geometry, lid);
+    w.diag.water_rule = WaterRule::LidRecalled;
   } else if (last_lid.confirmed && lid_at_level(last_lid, m.depth_mm, m.depth_uncertainty_mm, w.frame.t_ns, c)) {
     // Where the surface meets the walls is not known here: the level span's ends, or the deepest point.
     RutGeometry& g = workspace.geometry;
     const bool span = lid.right_x_mm > lid.left_x_mm;
     refuse_hidden(m, g, last_lid.level_mm, span ? lid.left_x_mm : g.deepest_x_mm,
                   span ? lid.right_x_mm : g.deepest_x_mm);
+    w.diag.water_rule = WaterRule::LidRecalled;
   }
 }
 
@@ -713,6 +717,7 @@ void StereoMeasurer::read_waterline(FrameWork& w, RutWorkspace& workspace, const
     // No waterline above a level span unlike the ground: a lid whose edges the walls do not show.
     if (lid.unlike_ground) {
       refuse_as_lid(m, workspace.geometry, lid);
+      w.diag.water_rule = WaterRule::LidUnlikeGround;
       workspace.last_lid = lid_found(last_lid, w.frame.t_ns, lid.level_mm, lid_u, c);
     } else if (recent(last, w.frame.t_ns, c)) {
       // No steps at all, a moment after the last frame confirmed a waterline: the water may well be
@@ -742,6 +747,7 @@ void StereoMeasurer::read_waterline(FrameWork& w, RutWorkspace& workspace, const
   if (brightens || seen_below < margin ||
       share_seen_below(w.section, workspace.geometry, line, margin) < c.min_share_seen_below) {
     mark(workspace.geometry);
+    w.diag.water_rule = WaterRule::WaterlineHides;
     m.status = RutStatus::BottomNotSeen;
     // The surface hides the bottom at the waterline's level: a lid (or opaque water) the next frames may
     // show lit like the soil.
@@ -751,10 +757,12 @@ void StereoMeasurer::read_waterline(FrameWork& w, RutWorkspace& workspace, const
   // A waterline at the level of a lid found a moment ago: the same debris, the bottom seen in its gaps.
   if (lid_at_level(last_lid, line.level_mm, line.level_u_mm, w.frame.t_ns, c)) {
     mark(workspace.geometry);
+    w.diag.water_rule = WaterRule::WaterlineAtLid;
     m.status = RutStatus::BottomNotSeen;
     return;
   }
   const RutGeometry apparent = workspace.geometry;
+  w.diag.water_rule = WaterRule::ReadThrough;  // a bottom the corrected section lacks too: BOTTOM_NOT_SEEN
   refract_section(w.section, apparent, line.level_mm, c.refractive_index, geometry_.baseline_mm(), y_mm, w.refracted,
                   w.water);
   RutMeasurement r = extract_rut(w.refracted, config_.rut, workspace);
@@ -806,7 +814,24 @@ void StereoMeasurer::weigh_candidate_waterline(FrameWork& w, RutWorkspace& works
   m.status = RutStatus::Uncertain;
   m.conditions |= kConditionWater | kConditionUncertain;
   m.quality = depth_quality(u, limit);
+  w.diag.water_rule = WaterRule::Candidate;
   mark_water(workspace.geometry, line.level_mm, line.left_x_mm, line.right_x_mm);
+}
+
+const char* water_rule_name(WaterRule rule) {
+  switch (rule) {
+    case WaterRule::None: return "";
+    case WaterRule::Lid: return "lid";
+    case WaterRule::LidRecalled: return "lid_recalled";
+    case WaterRule::LidUnlikeGround: return "lid_unlike_ground";
+    case WaterRule::WaterlineHides: return "waterline_hides";
+    case WaterRule::WaterlineAtLid: return "waterline_at_lid";
+    case WaterRule::ReadThrough: return "read_through";
+    case WaterRule::Candidate: return "candidate";
+    case WaterRule::GuardStrip: return "guard_strip";
+    case WaterRule::FrameCheck: return "frame_check";
+  }
+  return "";
 }
 
 std::string gap_fill_window_problem(int half_window, int narrow_half_window) {
@@ -921,6 +946,8 @@ void StereoMeasurer::extract(FrameWork& w, RutWorkspace& workspace) const {
   if (!config_.conditions.enabled) signal = PairSignal{};
   check_frame(w.left_strip, w.right_strip, w.disparity, first, first + strip_.rows, geometry_, workspace.geometry,
               w.diag.band, w.frame.skew_ns, signal, config_.conditions, w.checks, w.measurement);
+  if ((w.measurement.conditions & kConditionWater) != 0 && w.diag.water_rule == WaterRule::None)
+    w.diag.water_rule = WaterRule::FrameCheck;
   read_strips_together(w, workspace);
   check_guards(w, workspace);
   w.geometry = workspace.geometry;

@@ -2,7 +2,8 @@
 """Checks `rutd bench --scenes --json` with Python's own JSON decoder: one object per scene, every
 documented key with its type, and each scene's counts recomputed from its frames (OK within 1 mm of the
 truth, OK beyond, refused, refused with an expected condition or status, refusals by status), each frame's error
-against its own depth and truth, and the water's truth present exactly in water scenes.
+against its own depth and truth, the water's truth present exactly in water scenes, and a water rule named
+exactly on the frames flagged Water (an OK one read through the water).
 Usage: check_scene_matrix_json.py FILE SCENES FRAMES. Prints what it checked; exits 1 naming the first
 fault."""
 import json
@@ -16,8 +17,12 @@ SCENE_KEYS = {"scene": str, "group": str, "kind": str, "expect": list, "synth": 
               "seconds": (int, float), "per_frame": list}
 FRAME_KEYS = {"index": int, "status": str, "depth_mm": (int, float), "truth_mm": (int, float),
               "error_mm": (int, float), "uncertainty_mm": (int, float, type(None)), "conditions": list,
+              "water_rule": (str, type(None)),
               "water_depth_mm": (int, float), "waterline_depth_mm": (int, float, type(None)),
               "exposure": (int, float), "gain": (int, float)}
+# The rule that flagged a frame Water (MeasurementDiagnostics::water_rule), null on a frame not flagged.
+WATER_RULES = {"lid", "lid_recalled", "lid_unlike_ground", "waterline_hides", "waterline_at_lid", "read_through",
+               "candidate", "guard_strip", "frame_check"}
 CONDITIONS = {"Water", "LeftLensObstructed", "RightLensObstructed", "LowLight", "Overexposed", "Vegetation",
               "CalibrationDrift", "DepthUncertain"}
 
@@ -47,6 +52,12 @@ def check_scene(s, frames):
             return fault
         if f["index"] != i or not set(f["conditions"]) <= CONDITIONS:
             return f"{name} frame {i}: index or conditions {f}"
+        if ("Water" in f["conditions"]) != (f["water_rule"] is not None) or \
+                (f["water_rule"] is not None and f["water_rule"] not in WATER_RULES):
+            return f"{name} frame {i}: water rule {f['water_rule']!r} with conditions {f['conditions']}"
+        # A depth published with the Water flag is one read through the water; every other rule refuses.
+        if f["status"] == "OK" and f["water_rule"] not in (None, "read_through"):
+            return f"{name} frame {i}: published OK by water rule {f['water_rule']}"
         if abs(f["error_mm"] - (f["depth_mm"] - f["truth_mm"])) > 2e-4:
             return f"{name} frame {i}: error {f['error_mm']} is not depth - truth"
         if water != (f["water_depth_mm"] > 0) or water != (f["waterline_depth_mm"] is not None):

@@ -3,6 +3,8 @@
 // --only refused naming the option. The matrix's outcomes are reported, not judged, here.
 #include <regex>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include <gtest/gtest.h>
 
@@ -45,6 +47,32 @@ TEST(BenchScenes, TextTableHasARowPerSceneAndTheirSynthOptions) {
   }
   EXPECT_EQ(rows, 4) << text;
   EXPECT_NE(text.find("--lens mud:left:"), std::string::npos);
+}
+
+// Each frame flagged Water names the rule that flagged it, the one the renderer's water calls for: opaque
+// turbid water hides the bottom below a waterline on both walls, the bottom under clear water is read
+// through it and published, a foam lid is a level span unlike the soil, a dry rut has no rule.
+TEST(BenchScenes, EachWaterFlagNamesTheRuleThatRaisedIt) {
+  test::TempDir dir;
+  const auto out = dir.path() / "water.jsonl";
+  const std::vector<std::pair<std::string, std::string>> want = {{"water-turbid-sand-00", "\"waterline_hides\""},
+                                                                 {"water-clear-sand-25", "\"read_through\""},
+                                                                 {"lid-foam-snow-06", "\"lid\""},
+                                                                 {"clean-manual-sand-16", "null"}};
+  std::string only;
+  for (const auto& [scene, rule] : want) only += (only.empty() ? "" : "|") + scene;
+  ASSERT_EQ(test::run_rutd("bench --scenes --only '^(" + only + ")$' --frames 2 --json >" + test::quoted(out)), 0);
+  const std::string text = test::read_text(out);
+  const std::regex rule_of_frame("\"water_rule\":(null|\"[a-z_]+\")");
+  int frames = 0;
+  for (const auto& [scene, rule] : want) {
+    const std::size_t at = text.find("{\"scene\":\"" + scene + "\"");
+    ASSERT_NE(at, std::string::npos) << scene;
+    const std::string line = text.substr(at, text.find('\n', at) - at);
+    for (std::sregex_iterator it(line.begin(), line.end(), rule_of_frame), end; it != end; ++it, ++frames)
+      EXPECT_EQ((*it)[1].str(), rule) << scene;
+  }
+  EXPECT_EQ(frames, 8);
 }
 
 TEST(BenchScenes, BadSelectionIsRefusedNamingTheOption) {

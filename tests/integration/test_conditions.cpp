@@ -284,6 +284,26 @@ TEST(FreeRunningCameras, SkewedPairsAreUnsynchronisedNotCalibrationDrift) {
   EXPECT_EQ(checked, 9);
 }
 
+// The run's summary names the rule that flagged each pair Water: turbid water (the scene matrix's
+// water-turbid-sand-00, opaque at 92 % attenuation) hides the bottom below a waterline on both walls on
+// every pair; a dry rut has no pair flagged.
+TEST(ReplaySummary, NamesTheRuleThatFlaggedEachPairWater) {
+  const test::TempDir tmp;
+  const std::string turbid = (tmp.path() / "turbid").string(), dry = (tmp.path() / "dry").string();
+  ASSERT_EQ(test::run_rutd("synth " + turbid +
+                           " --frames 4 --texture sand --depth 48.5 --width 171 --bottom-width 81 --pile-left 3.0 "
+                           "--pile-right 8.7 --baseline 71 --height 299 --roll -4.1 --seed 1000 --water-level 14.6 "
+                           "--water-attenuation 0.92 --water-colour 0.13 --silt 0.07"),
+            0);
+  ASSERT_EQ(test::run_rutd("synth " + dry + " --frames 2 --texture sand --depth 48.5 --seed 1000"), 0);
+  const auto err = tmp.path() / "err.txt";
+  ASSERT_EQ(test::run_rutd("replay " + turbid + " --out " + (tmp.path() / "t.csv").string(), err.string()), 0);
+  const std::string turbid_log = test::read_text(err);
+  EXPECT_NE(turbid_log.find("BOTTOM_NOT_SEEN 4; flagged Water by waterline_hides 4;"), std::string::npos) << turbid_log;
+  ASSERT_EQ(test::run_rutd("replay " + dry + " --out " + (tmp.path() / "d.csv").string(), err.string()), 0);
+  EXPECT_EQ(test::read_text(err).find("flagged Water"), std::string::npos) << test::read_text(err);
+}
+
 INSTANTIATE_TEST_SUITE_P(Scenes, Conditions, ::testing::ValuesIn(kCases), [](const auto& info) {
   std::string name = info.param.name;
   for (char& ch : name) {

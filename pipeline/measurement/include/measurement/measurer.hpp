@@ -8,6 +8,8 @@
 //   extract  - reproject to millimetres, reduce to a cross-section, extract the rut, check the frame for
 //              the conditions that would make the depth wrong (measurement/frame_checks.hpp)
 // Per-frame path: nothing here throws because of frame content; a status says what went wrong.
+#include <cstddef>
+#include <cstdint>
 #include <memory>
 #include <optional>
 #include <span>
@@ -117,6 +119,24 @@ struct MeasurerConfig {
 // The one rule for the configuration file, the command line and the measurer's constructor.
 std::string gap_fill_window_problem(int half_window, int narrow_half_window);
 
+// Which rule flagged a frame Water (README, "Conditions rutd flags"; rut/waterline.hpp), the last to
+// decide it: what a user reading a recording, or the scene matrix, needs to tell a lid from a waterline or
+// a guard strip's finding. Names as water_rule_name() spells them.
+enum class WaterRule : std::uint8_t {
+  None,             // not flagged Water
+  Lid,              // a level span at the bottom lit unlike a wall, of another material, or brighter all round
+  LidRecalled,      // at the level of a lid (or a waterline the profile stopped at) found a moment ago
+  LidUnlikeGround,  // a level span unlike the flat ground, under no waterline
+  WaterlineHides,   // a waterline on both walls the profile stops at, follows, or brightens below: bottom hidden
+  WaterlineAtLid,   // a waterline at the level of a lid found a moment ago: the bottom seen in the debris' gaps
+  ReadThrough,      // the bottom read through the water below a waterline, corrected for refraction
+  Candidate,        // a candidate waterline: the readings dry and through it disagree beyond the limit
+  GuardStrip,       // a guard strip found the water, or the lid two strips found a moment ago (check_guards)
+  FrameCheck,       // the frame checks' own: a reflection in the rut, or its surface flat and unmatched
+};
+inline constexpr std::size_t kWaterRuleCount = static_cast<std::size_t>(WaterRule::FrameCheck) + 1;
+const char* water_rule_name(WaterRule rule);  // "lid", "read_through", ...; "" for None
+
 // Figures of one frame's measurement, for logs and benchmarks. Milliseconds of thread time per stage.
 struct MeasurementDiagnostics {
   DisparityBand band;
@@ -135,6 +155,7 @@ struct MeasurementDiagnostics {
   bool low_texture_read = false;  // read again with the noise judging the correlation (read_low_texture), in rut_ms
   bool strips_together = false;   // an Uncertain depth published from the strip and its guards (read_strips_together)
   int strips_read = 0;            // ... from how many strips: the strip and one or both guards
+  WaterRule water_rule = WaterRule::None;
 };
 
 // Everything one pair needs on its way through the stages. Frame pools hold these; every buffer is
