@@ -12,7 +12,6 @@ void RunSummary::add(const RutMeasurement& m, const MeasurementDiagnostics& d) {
   ++pairs_;
   const auto s = static_cast<std::size_t>(m.status);
   if (s < by_status_.size()) ++by_status_[s];
-  if (d.guard_water) ++guard_refused_;
   if (d.gaps_read) ++gaps_read_;
   if (d.low_texture_read) ++low_texture_read_;
   if (const auto r = static_cast<std::size_t>(d.water_rule); r > 0 && r < by_water_rule_.size()) ++by_water_rule_[r];
@@ -33,7 +32,6 @@ void RunSummary::log() const {
     if (!statuses.empty()) statuses += ", ";
     statuses += std::string(to_string(static_cast<RutStatus>(i))) + " " + std::to_string(by_status_[i]);
   }
-  if (guard_refused_ > 0) statuses += " (" + std::to_string(guard_refused_) + " of them by a guard strip's water)";
   std::string water;
   for (std::size_t r = 1; r < by_water_rule_.size(); ++r) {
     if (by_water_rule_[r] == 0) continue;

@@ -168,7 +168,6 @@ void StereoMeasurer::check_guards(FrameWork& w, RutWorkspace& workspace) const {
   // ago: the lid, lit here like the soil (leaves floating on turbid water were published 25 mm shallow
   // so, each strip having found the lid once, none twice running).
   if (refused || at_lid_of_two_strips(workspace, w.frame.t_ns, {depths.data(), n})) {
-    w.diag.guard_water = true;
     w.diag.water_rule = WaterRule::GuardStrip;
     m.conditions |= kConditionWater;
     m.status = RutStatus::BottomNotSeen;

@@ -135,7 +135,7 @@ TEST(GuardStrips, ALidTheStripTookForTheBottomIsRefusedWithWater) {
     std::printf("frame %llu: strip alone %s %.2f mm, guarded %s (guards %d, water %d), truth %.2f mm\n",
                 static_cast<unsigned long long>(i), std::string(to_string(a.status)).c_str(), a.depth_mm,
                 std::string(to_string(g.status)).c_str(), guarded.diagnostics().guard_strips,
-                guarded.diagnostics().guard_water ? 1 : 0, truth);
+                guarded.diagnostics().water_rule == WaterRule::GuardStrip ? 1 : 0, truth);
     // Never a wrong depth published OK, guarded.
     if (g.status == RutStatus::Ok) {
       EXPECT_LE(std::abs(g.depth_mm - truth), 1.0) << "frame " << i;
@@ -144,8 +144,8 @@ TEST(GuardStrips, ALidTheStripTookForTheBottomIsRefusedWithWater) {
     ++wrong_alone;
     EXPECT_EQ(g.status, RutStatus::BottomNotSeen) << "frame " << i;
     EXPECT_NE(g.conditions & kConditionWater, 0U) << "frame " << i;
-    EXPECT_TRUE(guarded.diagnostics().guard_water) << "frame " << i;
-    refused += g.status == RutStatus::BottomNotSeen && guarded.diagnostics().guard_water;
+    EXPECT_TRUE(guarded.diagnostics().water_rule == WaterRule::GuardStrip) << "frame " << i;
+    refused += g.status == RutStatus::BottomNotSeen && guarded.diagnostics().water_rule == WaterRule::GuardStrip;
   }
   EXPECT_GE(wrong_alone, 1) << "no frame the strip alone publishes OK off the truth: the scene tests nothing";
   EXPECT_EQ(refused, wrong_alone);
@@ -167,7 +167,7 @@ TEST(GuardStrips, CleanRutsAreLeftAlone) {
       const RutMeasurement r = m.measure(frame.left, frame.right, frame.skew_ns, frame.t_ns);
       ASSERT_EQ(r.status, RutStatus::Ok) << line << " frame " << i;
       EXPECT_EQ(m.diagnostics().guard_strips, 2) << line << " frame " << i;
-      EXPECT_FALSE(m.diagnostics().guard_water) << line << " frame " << i;
+      EXPECT_FALSE(m.diagnostics().water_rule == WaterRule::GuardStrip) << line << " frame " << i;
       EXPECT_EQ(r.conditions & kConditionWater, 0U) << line << " frame " << i;
       EXPECT_NEAR(r.depth_mm, renderer.truth(i).depth_mm, 0.5) << line << " frame " << i;
       const RutMeasurement d = by_default.measure(frame.left, frame.right, frame.skew_ns, frame.t_ns);
@@ -206,8 +206,8 @@ TEST(GuardStrips, AskedWithinGuardAfterWaterOfAFrameFlaggedWater) {
       EXPECT_TRUE(water_before) << "frame " << i;
       EXPECT_EQ(d.status, RutStatus::BottomNotSeen) << "frame " << i;
       EXPECT_NE(d.conditions & kConditionWater, 0U) << "frame " << i;
-      EXPECT_TRUE(by_default.diagnostics().guard_water) << "frame " << i;
-      refused += d.status == RutStatus::BottomNotSeen && by_default.diagnostics().guard_water;
+      EXPECT_TRUE(by_default.diagnostics().water_rule == WaterRule::GuardStrip) << "frame " << i;
+      refused += d.status == RutStatus::BottomNotSeen && by_default.diagnostics().water_rule == WaterRule::GuardStrip;
       // The same frame, captured later than the window after the frame before: not guarded.
       const RutMeasurement l = late.measure(frame.left, frame.right, frame.skew_ns,
                                             frame.t_ns + static_cast<std::int64_t>((window_s + 0.1) * 1e9));

@@ -12,8 +12,8 @@ class RunSummary {
  public:
   RunSummary();
   void add(const RutMeasurement& m, const MeasurementDiagnostics& d);
-  // Logs pairs, measurements per status (how many a guard strip refused, the pairs flagged Water per rule
-  // that flagged them, and on how many the gaps were read again with wider windows), measurement rate (pairs per second
+  // Logs pairs, measurements per status (the pairs flagged Water per rule that flagged them, a guard strip's
+  // among them, and on how many the gaps were read again with wider windows), measurement rate (pairs per second
   // of measuring time, and per second of wall time) and the mean time of each stage.
   void log() const;
   std::uint64_t pairs() const { return pairs_; }
@@ -22,9 +22,8 @@ class RunSummary {
   std::chrono::steady_clock::time_point start_;
   std::uint64_t pairs_ = 0;
   std::array<std::uint64_t, kRutStatusCount> by_status_{};
-  std::uint64_t guard_refused_ = 0;     // OK on the strip, refused by a guard strip (StripConfig::guards)
-  std::uint64_t gaps_read_ = 0;         // MeasurementDiagnostics::gaps_read
-  std::uint64_t low_texture_read_ = 0;  // MeasurementDiagnostics::low_texture_read
+  std::uint64_t gaps_read_ = 0;                                 // MeasurementDiagnostics::gaps_read
+  std::uint64_t low_texture_read_ = 0;                          // MeasurementDiagnostics::low_texture_read
   std::array<std::uint64_t, kWaterRuleCount> by_water_rule_{};  // MeasurementDiagnostics::water_rule
   double rectify_ms_ = 0, band_ms_ = 0, disparity_ms_ = 0, dic_ms_ = 0, reproject_ms_ = 0, rut_ms_ = 0;
 };

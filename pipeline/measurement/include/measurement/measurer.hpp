@@ -119,9 +119,9 @@ struct MeasurerConfig {
 // The one rule for the configuration file, the command line and the measurer's constructor.
 std::string gap_fill_window_problem(int half_window, int narrow_half_window);
 
-// Which rule flagged a frame Water (README, "Conditions rutd flags"; rut/waterline.hpp), the last to
-// decide it: what a user reading a recording, or the scene matrix, needs to tell a lid from a waterline or
-// a guard strip's finding. Names as water_rule_name() spells them.
+// Which rule flagged a frame Water (README, "Conditions rutd flags"; rut/waterline.hpp), the one that
+// decided it (the guard strips' over the strip's own): what a user reading a recording, or the scene matrix, needs to
+// tell a lid from a waterline or a guard strip's finding. Names as water_rule_name() spells them.
 enum class WaterRule : std::uint8_t {
   None,             // not flagged Water
   Lid,              // a level span at the bottom lit unlike a wall, of another material, or brighter all round
@@ -150,12 +150,11 @@ struct MeasurementDiagnostics {
   bool rectified_on_device = false;
   bool band_on_device = false;  // the band's coarse pass ran on the engine's device (it rectified too)
   int guard_strips = 0;         // guard strips measured (StripConfig::guards), in rut_ms
-  bool guard_water = false;     // ... and one of them refused the frame
   bool gaps_read = false;  // the gaps were read with wider windows (MeasurerConfig::gap_fill_half_window), in rut_ms
   bool low_texture_read = false;  // read again with the noise judging the correlation (read_low_texture), in rut_ms
   bool strips_together = false;   // an Uncertain depth published from the strip and its guards (read_strips_together)
   int strips_read = 0;            // ... from how many strips: the strip and one or both guards
-  WaterRule water_rule = WaterRule::None;
+  WaterRule water_rule = WaterRule::None;  // GuardStrip: a guard strip refused the frame
 };
 
 // Everything one pair needs on its way through the stages. Frame pools hold these; every buffer is
