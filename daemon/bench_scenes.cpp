@@ -206,6 +206,34 @@ struct GroupTotals {
   int scenes_wrong = 0, scenes_refused = 0;  // scenes with any frame OK beyond 1 mm / any frame refused
 };
 
+// The counts of one scene added to a kind's (the scene matrix's `kind`: water-clear, lens-mud-left, clean-auto, ...);
+// frames, texture and time are the scene's own and are left out.
+void add_counts(SceneOutcome& kind, const SceneOutcome& s) {
+  kind.ok_within += s.ok_within, kind.ok_beyond += s.ok_beyond, kind.refused += s.refused;
+  kind.refused_expected += s.refused_expected, kind.refused_within += s.refused_within;
+  kind.worst_ok_error = std::max(kind.worst_ok_error, s.worst_ok_error);
+  for (const auto& [status, n] : s.refusals) kind.refusals[status] += n;
+  for (int k = 0; k < 8; ++k) kind.flag_count[k] += s.flag_count[k];
+}
+
+// The scene x outcome table: per kind of scene, pairs OK within 1 mm, OK beyond it (the worst error), refused
+// (how many with the flag the kind calls for, how many within 1 mm all the same) and the refusals' statuses
+// and conditions, as the scene rows give them.
+void print_kinds(std::FILE* text, const std::vector<MatrixScene>& scenes,
+                 const std::map<std::string, SceneOutcome>& kinds) {
+  std::fprintf(text, "\n%-18s %-7s %6s %6s %6s %6s %7s %7s %10s  %s\n", "kind", "group", "scenes", "ok<=1", "ok>1",
+               "worst", "refused", "ref<=1", "right flag", "refusals");
+  for (const auto& [kind, k] : kinds) {
+    const auto first = std::find_if(scenes.begin(), scenes.end(), [&](const MatrixScene& s) { return s.kind == kind; });
+    const auto n = std::count_if(scenes.begin(), scenes.end(), [&](const MatrixScene& s) { return s.kind == kind; });
+    const std::string right = first->expect.empty() ? "-" : fmt::format("{}/{}", k.refused_expected, k.refused);
+    std::fprintf(text, "%-18s %-7s %6td %6d %6d %6s %7d %7d %10s  %s\n", kind.c_str(), first->group.c_str(), n,
+                 k.ok_within, k.ok_beyond,
+                 k.ok_within + k.ok_beyond > 0 ? fmt::format("{:.2f}", k.worst_ok_error).c_str() : "-", k.refused,
+                 k.refused_within, right.c_str(), refusal_text(k).c_str());
+  }
+}
+
 }  // namespace
 
 int run_bench_scenes(const BenchScenesOptions& o) {
@@ -233,6 +261,7 @@ int run_bench_scenes(const BenchScenesOptions& o) {
     std::printf("%-30s %-7s %6s %6s %6s %7s %5s %7s %10s  %s\n", "scene", "group", "frames", "ok<=1", "ok>1", "worst",
                 "t/n", "ref<=1", "right flag", "refused");
   std::map<std::string, GroupTotals> totals;
+  std::map<std::string, SceneOutcome> kinds;
   ProgressLine progress("scenes", scenes.size());
   const auto start = std::chrono::steady_clock::now();
   for (std::size_t i = 0; i < scenes.size(); ++i) {
@@ -250,6 +279,7 @@ int run_bench_scenes(const BenchScenesOptions& o) {
                   s.texture_to_noise, s.refused_within, right.c_str(), refusal_text(s).c_str());
       std::fflush(stdout);
     }
+    add_counts(kinds[scene.kind], s);
     GroupTotals& t = totals[scene.group];
     ++t.scenes;
     t.frames += static_cast<int>(s.frames.size());
@@ -261,6 +291,7 @@ int run_bench_scenes(const BenchScenesOptions& o) {
   }
   progress.clear();
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  print_kinds(text, scenes, kinds);
   std::fprintf(text, "\n");
   for (const auto& [group, t] : totals) {
     std::fprintf(text,

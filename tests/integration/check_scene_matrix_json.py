@@ -3,9 +3,10 @@
 documented key with its type, and each scene's counts recomputed from its frames (OK within 1 mm of the
 truth, OK beyond, refused, refused with an expected condition or status, refusals by status), each frame's error
 against its own depth and truth, the water's truth present exactly in water scenes, and a water rule named
-exactly on the frames flagged Water (an OK one read through the water).
-Usage: check_scene_matrix_json.py FILE SCENES FRAMES. Prints what it checked; exits 1 naming the first
-fault."""
+exactly on the frames flagged Water (an OK one read through the water); given the summary rutd printed
+(stderr under --json), its scene x outcome table too: a row per kind of scene whose counts are the frames'.
+Usage: check_scene_matrix_json.py FILE SCENES FRAMES [SUMMARY]. Prints what it checked; exits 1 naming the
+first fault."""
 import json
 import math
 import sys
@@ -83,6 +84,43 @@ def check_scene(s, frames):
     return None
 
 
+def kind_rows(summary):
+    """The scene x outcome table's rows: kind -> (group, scenes, ok<=1, ok>1, refused, ref<=1, right flag)."""
+    rows = {}
+    head = summary.find("\nkind ")
+    if head < 0:
+        return rows
+    for line in summary[head + 1:].split("\n")[1:]:
+        cols = line.split()
+        if len(cols) < 9:
+            break
+        rows[cols[0]] = (cols[1], int(cols[2]), int(cols[3]), int(cols[4]), int(cols[6]), int(cols[7]), cols[8])
+    return rows
+
+
+def check_kinds(objs, summary):
+    """Each kind's row recomputed from its scenes' frames, and a row for every kind and no other."""
+    want = {}
+    for s in objs:
+        g, n, within, beyond, refused, ref_within, expected, flagged = want.get(s["kind"], (s["group"], 0, 0, 0, 0, 0, 0, bool(s["expect"])))
+        for f in s["per_frame"]:
+            ok = f["status"] == "OK"
+            within += ok and abs(f["error_mm"]) <= 1.0
+            beyond += ok and abs(f["error_mm"]) > 1.0
+            refused += not ok
+            ref_within += not ok and abs(f["error_mm"]) <= 1.0
+            expected += not ok and (bool(set(f["conditions"]) & set(s["expect"])) or f["status"] in s["expect"])
+        want[s["kind"]] = (g, n + 1, within, beyond, refused, ref_within, expected, flagged)
+    got = kind_rows(summary)
+    if set(got) != set(want):
+        return f"kind table rows {sorted(got)}, scenes' kinds {sorted(want)}"
+    for kind, (g, n, within, beyond, refused, ref_within, expected, flagged) in want.items():
+        right = f"{expected}/{refused}" if flagged else "-"
+        if got[kind] != (g, n, within, beyond, refused, ref_within, right):
+            return f"kind {kind}: row {got[kind]}, frames say {(g, n, within, beyond, refused, ref_within, right)}"
+    return None
+
+
 def main() -> int:
     path, scenes, frames = sys.argv[1], int(sys.argv[2]), int(sys.argv[3])
     with open(path, encoding="utf-8") as f:
@@ -90,12 +128,21 @@ def main() -> int:
     if len(lines) != scenes:
         print(f"{len(lines)} JSON lines, want {scenes}")
         return 1
-    for line in lines:
-        fault = check_scene(json.loads(line), frames)
+    objs = [json.loads(line) for line in lines]
+    for obj in objs:
+        fault = check_scene(obj, frames)
         if fault:
             print(fault)
             return 1
-    print(f"{scenes} scenes x {frames} frames: keys, types and counts agree with the frames")
+    checked = ""
+    if len(sys.argv) > 4:
+        with open(sys.argv[4], encoding="utf-8") as f:
+            fault = check_kinds(objs, f.read())
+        if fault:
+            print(fault)
+            return 1
+        checked = f"; the kind table's {len(set(o['kind'] for o in objs))} rows too"
+    print(f"{scenes} scenes x {frames} frames: keys, types and counts agree with the frames{checked}")
     return 0
 
 
