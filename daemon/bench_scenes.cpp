@@ -44,7 +44,8 @@ struct FrameOutcome {
   RutMeasurement m;
   RutTruth truth;
   CameraSettings settings;
-  WaterRule water_rule = WaterRule::None;  // the rule that flagged it Water
+  WaterRule water_rule = WaterRule::None;     // the rule that flagged it Water
+  WaterRule dry_overruled = WaterRule::None;  // the rule the steady dry frames before overruled
 };
 
 struct SceneOutcome {
@@ -111,6 +112,7 @@ SceneOutcome measure_scene(const MatrixScene& scene, const BenchScenesOptions& o
     f.settings = renderer.render(f.index, frame);
     f.m = measurer.measure(frame.left, frame.right, frame.skew_ns, frame.t_ns);
     f.water_rule = measurer.diagnostics().water_rule;
+    f.dry_overruled = measurer.diagnostics().dry_overruled;
     f.truth = renderer.truth(f.index);
     const double error = std::abs(f.m.depth_mm - f.truth.depth_mm);
     if (f.m.status == RutStatus::Ok) {
@@ -167,6 +169,10 @@ std::string json_conditions(std::uint8_t bits) {
   return out + "]";
 }
 
+std::string rule_json(WaterRule rule) {
+  return rule == WaterRule::None ? std::string("null") : json_string(water_rule_name(rule));
+}
+
 void print_json(const MatrixScene& scene, const SceneOutcome& s) {
   std::string expect = "[";
   for (const std::string& e : scene.expect) expect += (expect.size() > 1 ? "," : "") + json_string(e);
@@ -179,14 +185,14 @@ void print_json(const MatrixScene& scene, const SceneOutcome& s) {
   for (const FrameOutcome& f : s.frames) {
     frames += fmt::format(
         "{}{{\"index\":{},\"status\":{},\"depth_mm\":{},\"truth_mm\":{},\"error_mm\":{},\"uncertainty_mm\":{},"
-        "\"conditions\":{},\"water_rule\":{},\"water_depth_mm\":{},\"waterline_depth_mm\":{},\"exposure\":{},"
+        "\"conditions\":{},\"water_rule\":{},\"dry_overruled\":{},\"water_depth_mm\":{},\"waterline_depth_mm\":{},"
+        "\"exposure\":{},"
         "\"gain\":{}}}",
         frames.size() > 1 ? "," : "", f.index, json_string(std::string(to_string(f.m.status))),
         json_number(f.m.depth_mm), json_number(f.truth.depth_mm), json_number(f.m.depth_mm - f.truth.depth_mm),
-        json_number(f.m.depth_uncertainty_mm), json_conditions(f.m.conditions),
-        f.water_rule == WaterRule::None ? std::string("null") : json_string(water_rule_name(f.water_rule)),
-        json_number(f.truth.water_depth_mm), json_number(f.truth.waterline_depth_mm), json_number(f.settings.exposure),
-        json_number(f.settings.gain));
+        json_number(f.m.depth_uncertainty_mm), json_conditions(f.m.conditions), rule_json(f.water_rule),
+        rule_json(f.dry_overruled), json_number(f.truth.water_depth_mm), json_number(f.truth.waterline_depth_mm),
+        json_number(f.settings.exposure), json_number(f.settings.gain));
   }
   frames += "]";
   std::printf(

@@ -15,6 +15,7 @@ void RunSummary::add(const RutMeasurement& m, const MeasurementDiagnostics& d) {
   if (d.gaps_read) ++gaps_read_;
   if (d.low_texture_read) ++low_texture_read_;
   if (const auto r = static_cast<std::size_t>(d.water_rule); r > 0 && r < by_water_rule_.size()) ++by_water_rule_[r];
+  if (const auto r = static_cast<std::size_t>(d.dry_overruled); r > 0 && r < dry_overruled_.size()) ++dry_overruled_[r];
   rectify_ms_ += d.rectify_ms;
   band_ms_ += d.band_ms;
   disparity_ms_ += d.disparity_ms;
@@ -32,13 +33,18 @@ void RunSummary::log() const {
     if (!statuses.empty()) statuses += ", ";
     statuses += std::string(to_string(static_cast<RutStatus>(i))) + " " + std::to_string(by_status_[i]);
   }
-  std::string water;
-  for (std::size_t r = 1; r < by_water_rule_.size(); ++r) {
-    if (by_water_rule_[r] == 0) continue;
-    water += (water.empty() ? "" : ", ") + std::string(water_rule_name(static_cast<WaterRule>(r))) + " " +
-             std::to_string(by_water_rule_[r]);
-  }
-  if (!water.empty()) statuses += "; flagged Water by " + water;
+  const auto per_rule = [](const std::array<std::uint64_t, kWaterRuleCount>& counts) {
+    std::string text;
+    for (std::size_t r = 1; r < counts.size(); ++r) {
+      if (counts[r] == 0) continue;
+      text += (text.empty() ? "" : ", ") + std::string(water_rule_name(static_cast<WaterRule>(r))) + " " +
+              std::to_string(counts[r]);
+    }
+    return text;
+  };
+  if (const std::string water = per_rule(by_water_rule_); !water.empty()) statuses += "; flagged Water by " + water;
+  if (const std::string dry = per_rule(dry_overruled_); !dry.empty())
+    statuses += "; read dry as the steady frames before, overruling " + dry;
   if (gaps_read_ > 0) statuses += "; gaps read again with wider windows on " + std::to_string(gaps_read_) + " pairs";
   if (low_texture_read_ > 0)
     statuses += "; read again with the noise judging the windows on " + std::to_string(low_texture_read_) + " pairs";

@@ -61,6 +61,13 @@ void add_condition_options(CLI::App& cmd, SceneOptions& o) {
       ->check(CLI::Range(0.0, 500.0))
       ->capture_default_str()
       ->group(water);
+  cmd.add_option("--water-surface", w.surface_depth_mm,
+                 "A pool the rut runs into: its level surface this far below the ground, mm, whatever the rut's "
+                 "depth (--depth-profile); dry on frames where the rut is shallower")
+      ->check(CLI::Range(0.0, 500.0))
+      ->excludes("--water-level")
+      ->capture_default_str()
+      ->group(water);
   cmd.add_option(
          "--water-attenuation", w.attenuation_per_mm,
          "Beer-Lambert extinction, 1/mm: 0.001-0.01 clear (the bottom seen), 0.1-1 turbid (hidden but near the shore)")
@@ -187,9 +194,9 @@ void resolve_condition_options(const SceneOptions& o, SyntheticRendererConfig& p
       throw CLI::ValidationError("--water-level",
                                  "must be below the rut's depth on every frame (--depth, "
                                  "--depth-profile)");
-  } else {
-    if (w.debris_cover > 0) throw CLI::ValidationError("--debris", "needs water (--water-level)");
-    if (w.ripple_slope > 0) throw CLI::ValidationError("--ripple", "needs water (--water-level)");
+  } else if (w.surface_depth_mm == 0) {
+    if (w.debris_cover > 0) throw CLI::ValidationError("--debris", "needs water (--water-level or --water-surface)");
+    if (w.ripple_slope > 0) throw CLI::ValidationError("--ripple", "needs water (--water-level or --water-surface)");
   }
   if (std::isfinite(o.sun_elevation_deg) || std::isfinite(o.sun_azimuth_deg)) {
     // Unset halves keep the default sun's.

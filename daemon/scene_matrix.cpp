@@ -263,6 +263,41 @@ void add_skew(std::vector<MatrixScene>& out) {
   }
 }
 
+// A rut deepening by `rate` mm a pair into a pool whose level surface lies below the ground where the rut
+// reaches it between two pairs: 2-4 dry pairs, then water from a fraction of `rate` deep on the first wet
+// pair (--water-surface, --depth-profile over the matrix's 8 pairs). Rates (log-uniform) from a rut
+// levelling off, where a dry pair's depth is most like the next one's, to one plunging 1 mm in 15 of
+// travel at 1 m/s.
+void add_entries(std::vector<MatrixScene>& out) {
+  constexpr std::array<const char*, 5> kKinds = {"turbid", "foam", "leaves", "litter", "clear"};
+  Draw d(0xE4721);
+  for (int i = 0; i < 10; ++i) {
+    const std::string kind = kKinds[static_cast<std::size_t>(i % 5)];
+    const char* texture = kTextures[static_cast<std::size_t>((i / 5 + i) % 4)];
+    const double depth = d.uniform(25, 50);
+    const double rate = std::exp(d.uniform(std::log(0.05), std::log(2.2)));  // as often under 0.3 as over 0.3
+    const int first_wet = 2 + d.pick(3);
+    // The surface a fraction of a pair's deepening above the first wet pair's bottom.
+    const double surface = depth + rate * (first_wet - d.uniform(0.05, 0.95));
+    std::string water =
+        fmt::format(" --depth-profile 0:{:.2f},7:{:.2f} --water-surface {:.2f}", depth, depth + 7 * rate, surface);
+    if (kind == "turbid") {
+      water += draw_option(d, "--water-attenuation", 0.15, 1.0, 2) + draw_option(d, "--water-colour", 0.08, 0.25, 2);
+    } else if (kind == "clear") {
+      water += draw_option(d, "--water-attenuation", 0.002, 0.01, 4);
+    } else {
+      water += draw_option(d, "--debris", 0.5, 1.0, 2) + " --debris-kind " + kind;
+      water += draw_option(d, "--water-attenuation", 0.03, 0.6, 3);
+    }
+    // Half the shores sharp (no capillary fringe: the dry pairs' bottom unwetted up to the water), half
+    // wetted a few millimetres above the surface.
+    water += i % 2 == 1 ? std::string(" --wet-fringe 0") : draw_option(d, "--wet-fringe", 1, 4, 1);
+    const std::string rig = rig_and_rut(d, texture, depth, 3100 + i);
+    out.push_back(
+        {fmt::format("entry-{}-{}-{:02d}", kind, texture, i), "entry", "entry-" + kind, {"Water"}, rig + water});
+  }
+}
+
 }  // namespace
 
 std::vector<MatrixScene> scene_matrix() {
@@ -274,6 +309,7 @@ std::vector<MatrixScene> scene_matrix() {
   add_clean(scenes);
   add_tread(scenes);
   add_skew(scenes);
+  add_entries(scenes);
   return scenes;
 }
 

@@ -54,14 +54,16 @@ bool parse_lens_side(std::string_view name, LensSide& out) {
 
 void validate(const SceneConditions& c, double min_depth_mm) {
   const WaterConfig& w = c.water;
-  for (double v : {w.level_mm, w.refractive_index, w.attenuation_per_mm, w.body_albedo, w.silt_contrast, w.debris_cover,
-                   w.ripple_slope, w.wind_azimuth_deg, w.rain_rate_per_m2_s, w.roughness_deg, w.wet_albedo_factor,
-                   w.wet_fringe_mm}) {
+  for (double v : {w.level_mm, w.surface_depth_mm, w.refractive_index, w.attenuation_per_mm, w.body_albedo,
+                   w.silt_contrast, w.debris_cover, w.ripple_slope, w.wind_azimuth_deg, w.rain_rate_per_m2_s,
+                   w.roughness_deg, w.wet_albedo_factor, w.wet_fringe_mm}) {
     require(std::isfinite(v), "water", "every value must be finite");
   }
   require(w.level_mm >= 0, "water.level_mm", "must be >= 0");
   if (w.level_mm > 0)
     require(w.level_mm < min_depth_mm, "water.level_mm", "must be below the rut's depth on every frame");
+  require(w.surface_depth_mm >= 0, "water.surface_depth_mm", "must be >= 0");
+  require(w.level_mm == 0 || w.surface_depth_mm == 0, "water.surface_depth_mm", "cannot be set with water.level_mm");
   require(w.refractive_index >= 1 && w.refractive_index <= 2, "water.refractive_index", "must be within [1, 2]");
   require(w.attenuation_per_mm >= 0, "water.attenuation_per_mm", "must be >= 0");
   require(w.body_albedo >= 0 && w.body_albedo <= 1, "water.body_albedo", "must be within [0, 1]");

@@ -425,7 +425,7 @@ SyntheticRenderer::SyntheticRenderer(const SyntheticRendererConfig& params)
   truth_rotation_ = cv::Matx33d(R1);
   const SceneConditions& conditions = params_.conditions;
   sun_ = cv::normalize(conditions.sky.sun);
-  if (conditions.water.level_mm > 0)
+  if (conditions.water.level_mm > 0 || conditions.water.surface_depth_mm > 0)
     water_ = std::make_shared<const WaterOptics>(conditions.water, conditions.sky, sun_, kAmbient, params_.seed);
   window_[0] = LensWindow::make(conditions.lens, Camera::Left, left_.centres, left_.K(0, 0), params_.seed);
   window_[1] = LensWindow::make(conditions.lens, Camera::Right, right_.centres, right_.K(0, 0), params_.seed);
@@ -505,8 +505,11 @@ CameraSettings SyntheticRenderer::render(std::uint64_t index, StereoFrame& out) 
   radiance[1].create(size, CV_64F);
   const double frame_time = static_cast<double>(index) / params_.fps;
   const double delay = params_.right_delay_ms * 1e-3;
-  const double water_z =
-      water_ ? -terrain.shape().depth_mm + params_.conditions.water.level_mm : std::numeric_limits<double>::quiet_NaN();
+  // Below the rut's bottom (a pool's surface on a frame where the rut is shallower), no ray meets it first.
+  const WaterConfig& water = params_.conditions.water;
+  const double water_z = !water_                      ? std::numeric_limits<double>::quiet_NaN()
+                         : water.surface_depth_mm > 0 ? -water.surface_depth_mm
+                                                      : -terrain.shape().depth_mm + water.level_mm;
   const Exposure exposures[2] = {
       {left_, terrain, camera_centre(Camera::Left, index), frame_time, vehicle_y(index), water_z},
       {right_, terrain, camera_centre(Camera::Right, index), frame_time + delay,
@@ -826,7 +829,9 @@ RutTruth SyntheticRenderer::truth(std::uint64_t index) const {
   t.center_x_mm = (x_minus + x_plus) / 2;
   t.tread_depth_mm = shape.tread ? shape.tread_depth_mm * k : 0.0;
   t.y_mm = vehicle_y(index);
-  const double level = params_.conditions.water.level_mm;
+  const WaterConfig& water = params_.conditions.water;
+  const double level =
+      water.surface_depth_mm > 0 ? std::max(0.0, shape.depth_mm - water.surface_depth_mm) : water.level_mm;
   if (level > 0) {
     // The surface meets each wall where -D (1 + cos(pi u)) / 2 = level - D, u across the wall.
     const double u = std::acos(1 - 2 * level / shape.depth_mm) / kPi;

@@ -817,6 +817,80 @@ void StereoMeasurer::weigh_candidate_waterline(FrameWork& w, RutWorkspace& works
   mark_water(workspace.geometry, line.level_mm, line.left_x_mm, line.right_x_mm);
 }
 
+namespace {
+
+// A depth (standard uncertainty u) within twice its combined uncertainty with the remembered dry one's,
+// and within dry_tolerance_mm.
+bool agree_dry(const DryMemory& last, double depth_mm, double u, const WaterlineConfig& c) {
+  const double tolerance = std::min(c.dry_tolerance_mm, 2.0 * std::hypot(u, last.depth_u_mm));
+  return std::abs(depth_mm - last.depth_mm) <= tolerance;
+}
+
+// The rules that judge the strip by its own looks on one frame (or recall a lid one such frame found): a
+// level span taken for a lid, a waterline the profile stops at, a candidate read both ways. Not a
+// waterline at a lid's level, a reading through the water, nor the frame checks'.
+bool judged_by_looks(WaterRule rule) {
+  return rule == WaterRule::Lid || rule == WaterRule::LidUnlikeGround || rule == WaterRule::WaterlineHides ||
+         rule == WaterRule::Candidate || rule == WaterRule::LidRecalled;
+}
+
+}  // namespace
+
+// A flat rut bottom can look like a lid to one strip on one frame: its brightness steps where the walls'
+// slope changes, its span is level and smooth, and every single-frame feature of it overlaps with real
+// lids' (see WaterlineConfig). What a lid cannot do is lie where the rut's bottom was read, dry, on the
+// frames just before, unless the rut ran into the water between them. So a looks rule's finding is
+// overruled, and the frame's dry reading published, where
+//   - its dry reading was OK with no condition;
+//   - the last frame dry by its own looks (no water rule, not overruled) is at most memory_s old and was
+//     steady: its depth agreed with the dry frame's before it (agree_dry), so the rut was not deepening by
+//     more than that from frame to frame (a rut plunging 2 mm a frame into a pool whose lid lies at the
+//     last dry depth was read 1.9 mm short without this test);
+//   - this dry reading agrees with that depth (agree_dry);
+//   - both guard strips, measured on this frame alone, find the bottom dry by their own looks: water lies
+//     along the rut, and a strip entering a pool has a guard ahead of it already in it (a rut deepening
+//     into a pool while its frames read the surface steadily was read 1.2 mm short with the strip alone).
+// The frame is then as it was before read_through_water: its geometry, and the waterline's and the lid's
+// memory, so that the overruled finding is recalled by no later frame. It does not renew the dry memory.
+void StereoMeasurer::recall_dry(FrameWork& w, RutWorkspace& workspace, const DryReading& before) const {
+  const WaterlineConfig& c = config_.water;
+  const DryMemory& last = workspace.last_dry;
+  const RutMeasurement& m = before.measurement;
+  if (!(c.dry_tolerance_mm > 0.0) || !judged_by_looks(w.diag.water_rule) || m.status != RutStatus::Ok ||
+      m.conditions != 0 || !last.found || !last.steady || !within_memory(last.t_ns, w.frame.t_ns, c) ||
+      !agree_dry(last, m.depth_mm, m.depth_uncertainty_mm, c) || !guards_dry(w))
+    return;
+  w.measurement = m;
+  workspace.geometry = before.geometry;
+  workspace.last_waterline = before.last_waterline;
+  workspace.last_lid = before.last_lid;
+  w.diag.dry_overruled = w.diag.water_rule;
+  w.diag.water_rule = WaterRule::None;
+}
+
+bool StereoMeasurer::guards_dry(FrameWork& w) const {
+  if (!guards_ || guards_->strips.size() < 2) return false;
+  const std::lock_guard lock(guards_->mutex);
+  for (StereoMeasurer& guard : guards_->strips) {
+    const RutMeasurement g = guard.measure(w.frame.left, w.frame.right, w.frame.skew_ns, w.frame.t_ns);
+    ++w.diag.guard_strips;
+    if (g.status != RutStatus::Ok || g.conditions != 0) return false;
+  }
+  return true;
+}
+
+void StereoMeasurer::remember_dry(const FrameWork& w, RutWorkspace& workspace) const {
+  const RutMeasurement& m = w.measurement;
+  DryMemory& last = workspace.last_dry;
+  if ((m.conditions & kConditionWater) != 0) {
+    last = DryMemory{};
+  } else if (m.status == RutStatus::Ok && m.conditions == 0 && w.diag.dry_overruled == WaterRule::None) {
+    const bool steady = last.found && within_memory(last.t_ns, w.frame.t_ns, config_.water) &&
+                        agree_dry(last, m.depth_mm, m.depth_uncertainty_mm, config_.water);
+    last = DryMemory{w.frame.t_ns, true, m.depth_mm, m.depth_uncertainty_mm, steady};
+  }
+}
+
 const char* water_rule_name(WaterRule rule) {
   switch (rule) {
     case WaterRule::None: return "";
@@ -941,7 +1015,9 @@ void StereoMeasurer::extract(FrameWork& w, RutWorkspace& workspace) const {
   read_gaps(w, workspace, first);
   read_low_texture(w, workspace, signal, first);
   const cv::Mat points = w.xyz.rowRange(first, first + strip_.rows);  // read_low_texture may have read it again
+  const DryReading dry{w.measurement, workspace.geometry, workspace.last_waterline, workspace.last_lid};
   read_through_water(w, workspace, points, first);
+  recall_dry(w, workspace, dry);
   if (!config_.conditions.enabled) signal = PairSignal{};
   check_frame(w.left_strip, w.right_strip, w.disparity, first, first + strip_.rows, geometry_, workspace.geometry,
               w.diag.band, w.frame.skew_ns, signal, config_.conditions, w.checks, w.measurement);
@@ -949,6 +1025,7 @@ void StereoMeasurer::extract(FrameWork& w, RutWorkspace& workspace) const {
     w.diag.water_rule = WaterRule::FrameCheck;
   read_strips_together(w, workspace);
   check_guards(w, workspace);
+  remember_dry(w, workspace);
   w.geometry = workspace.geometry;
   w.measured = true;
   w.diag.rut_ms = ms_since(t0);

@@ -18,12 +18,14 @@ SCENE_KEYS = {"scene": str, "group": str, "kind": str, "expect": list, "synth": 
               "seconds": (int, float), "per_frame": list}
 FRAME_KEYS = {"index": int, "status": str, "depth_mm": (int, float), "truth_mm": (int, float),
               "error_mm": (int, float), "uncertainty_mm": (int, float, type(None)), "conditions": list,
-              "water_rule": (str, type(None)),
+              "water_rule": (str, type(None)), "dry_overruled": (str, type(None)),
               "water_depth_mm": (int, float), "waterline_depth_mm": (int, float, type(None)),
               "exposure": (int, float), "gain": (int, float)}
 # The rule that flagged a frame Water (MeasurementDiagnostics::water_rule), null on a frame not flagged.
 WATER_RULES = {"lid", "lid_recalled", "lid_unlike_ground", "waterline_hides", "waterline_at_lid", "read_through",
                "candidate", "guard_strip", "frame_check"}
+# The rules the steady dry frames before may overrule (StereoMeasurer::recall_dry).
+DRY_OVERRULED = {"lid", "lid_recalled", "lid_unlike_ground", "waterline_hides", "candidate"}
 CONDITIONS = {"Water", "LeftLensObstructed", "RightLensObstructed", "LowLight", "Overexposed", "Vegetation",
               "CalibrationDrift", "DepthUncertain"}
 
@@ -40,13 +42,14 @@ def check_scene(s, frames):
     fault = typed(s, SCENE_KEYS, name)
     if fault:
         return fault
-    if s["group"] not in ("spoiled", "clean", "tread", "skew"):
+    if s["group"] not in ("spoiled", "clean", "tread", "skew", "entry"):
         return f"{name}: group {s['group']}"
     if s["frames"] != frames or len(s["per_frame"]) != frames:
         return f"{name}: {s['frames']} frames, {len(s['per_frame'])} listed, want {frames}"
     within = beyond = refused = refused_within = expected = 0
     refusals = {}
     water = "--water-level" in s["synth"]
+    pool = "--water-surface" in s["synth"]  # wet on the frames the rut reaches the pool's surface
     for i, f in enumerate(s["per_frame"]):
         fault = typed(f, FRAME_KEYS, f"{name} frame {i}")
         if fault:
@@ -56,12 +59,16 @@ def check_scene(s, frames):
         if ("Water" in f["conditions"]) != (f["water_rule"] is not None) or \
                 (f["water_rule"] is not None and f["water_rule"] not in WATER_RULES):
             return f"{name} frame {i}: water rule {f['water_rule']!r} with conditions {f['conditions']}"
+        # A rule judging the strip's looks, overruled by the steady dry frames before: the frame is not flagged.
+        if f["dry_overruled"] is not None and (f["dry_overruled"] not in DRY_OVERRULED or f["water_rule"] is not None):
+            return f"{name} frame {i}: dry_overruled {f['dry_overruled']!r} with water rule {f['water_rule']!r}"
         # A depth published with the Water flag is one read through the water; every other rule refuses.
         if f["status"] == "OK" and f["water_rule"] not in (None, "read_through"):
             return f"{name} frame {i}: published OK by water rule {f['water_rule']}"
         if abs(f["error_mm"] - (f["depth_mm"] - f["truth_mm"])) > 2e-4:
             return f"{name} frame {i}: error {f['error_mm']} is not depth - truth"
-        if water != (f["water_depth_mm"] > 0) or water != (f["waterline_depth_mm"] is not None):
+        wet = f["water_depth_mm"] > 0
+        if (wet != (f["waterline_depth_mm"] is not None)) or (not pool and water != wet):
             return f"{name} frame {i}: water truth {f['water_depth_mm']}, {f['waterline_depth_mm']}"
         if f["gain"] < 1 or f["exposure"] <= 0:
             return f"{name} frame {i}: exposure {f['exposure']} gain {f['gain']}"

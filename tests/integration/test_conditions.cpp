@@ -302,6 +302,25 @@ TEST(ReplaySummary, NamesTheRuleThatFlaggedEachPairWater) {
   EXPECT_NE(turbid_log.find("BOTTOM_NOT_SEEN 4; flagged Water by waterline_hides 4;"), std::string::npos) << turbid_log;
   ASSERT_EQ(test::run_rutd("replay " + dry + " --out " + (tmp.path() / "d.csv").string(), err.string()), 0);
   EXPECT_EQ(test::read_text(err).find("flagged Water"), std::string::npos) << test::read_text(err);
+  EXPECT_EQ(test::read_text(err).find("read dry"), std::string::npos) << test::read_text(err);
+}
+
+// The scene matrix's clean-gain-mud-21, whose frame 2 a waterline's rule takes for water: the steady dry
+// frames before overrule it (test_dry_memory.cpp), and the summary says so.
+TEST(ReplaySummary, CountsTheFindingsTheDryFramesBeforeOverruled) {
+  const test::TempDir tmp;
+  const std::string mud = (tmp.path() / "mud").string();
+  ASSERT_EQ(test::run_rutd("synth " + mud +
+                           " --frames 3 --texture mud --depth 60.8 --width 299 --bottom-width 179 --pile-left 7.1 "
+                           "--pile-right 17.7 --offset 6 --baseline 84 --height 463 --hfov 75 --roll 2.9 --pitch -1.2 "
+                           "--noise 1.19 --speed 2122 --right-response 1.024 --seed 2021 --exposure 1.007 --gain 2.46"),
+            0);
+  const auto err = tmp.path() / "err.txt";
+  ASSERT_EQ(test::run_rutd("replay " + mud + " --out " + (tmp.path() / "m.csv").string(), err.string()), 0);
+  const std::string log = test::read_text(err);
+  EXPECT_NE(log.find("3 pairs, 0 failures (OK 3; read dry as the steady frames before, overruling waterline_hides 1"),
+            std::string::npos)
+      << log;
 }
 
 INSTANTIATE_TEST_SUITE_P(Scenes, Conditions, ::testing::ValuesIn(kCases), [](const auto& info) {

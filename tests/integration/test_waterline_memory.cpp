@@ -261,13 +261,16 @@ TEST(LidMemory, ALidIsForgottenAfterMemorySAndNotRenewedByARecall) {
 
 // The scene matrix's clean-gain-mud-21: frame 2's profile stops at a pair of brightening steps placed at
 // its flat bottom, taken for a lid's waterline (a false alarm of its own); the frames after it show their
-// bottom at that level, lit like the walls.
+// bottom at that level, lit like the walls. The dry memory, which reads frame 2 as frames 0 and 1 read the
+// bottom (test_dry_memory.cpp), is off here so that frame 2 raises the case.
 TEST(LidMemory, ACleanRutAfterAFalseFindingStaysMeasured) {
   const SyntheticRenderer renderer(parse_scene_line(
       "--texture mud --depth 60.8 --width 299 --bottom-width 179 --pile-left 7.1 --pile-right 17.7 --offset 6 "
       "--baseline 84 --height 463 --hfov 75 --roll 2.9 --pitch -1.2 --noise 1.19 --speed 2122 "
       "--right-response 1.024 --seed 2021 --exposure 1.007 --gain 2.46"));
-  StereoMeasurer m(renderer.calibration(), strip_alone());
+  MeasurerConfig config = strip_alone();
+  config.water.dry_tolerance_mm = 0.0;
+  StereoMeasurer m(renderer.calibration(), config);
   std::vector<Measured> r;
   for (std::uint64_t i = 0; i < 8; ++i) r.push_back(measure(m, renderer, i));
   ASSERT_TRUE(bottom_hidden(r[2])) << to_string(r[2].m.status) << ": frame 2 no longer raises the case";

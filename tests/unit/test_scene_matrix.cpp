@@ -23,7 +23,7 @@ TEST(SceneMatrix, CoversTheSpoiledAndCleanScenesAndEveryOneIsAValidSynthCommand)
   const std::vector<MatrixScene> scenes = scene_matrix();
   std::map<std::string, int> groups;
   std::set<std::string> names, water_kind_texture, lens_kind_side, clean_texture_mode;
-  int checked = 0;
+  int checked = 0, entries = 0;
   for (const MatrixScene& s : scenes) {
     SCOPED_TRACE(s.name + ": " + s.synth);
     EXPECT_TRUE(names.insert(s.name).second) << "duplicate name";
@@ -70,6 +70,16 @@ TEST(SceneMatrix, CoversTheSpoiledAndCleanScenesAndEveryOneIsAValidSynthCommand)
       }
     } else if (s.group == "tread") {
       EXPECT_TRUE(p.rut.tread);
+    } else if (s.group == "entry") {
+      // Dry on the first two pairs at least, wet from the fifth on, the first wet pair's water under the
+      // deepening of one pair.
+      ASSERT_EQ(p.depth_profile.size(), 2u);
+      const double d0 = p.depth_profile[0].second, rate = (p.depth_profile[1].second - d0) / 7;
+      EXPECT_EQ(w.level_mm, 0);
+      EXPECT_LT(d0 + rate, w.surface_depth_mm);
+      EXPECT_GT(d0 + 4 * rate, w.surface_depth_mm);
+      EXPECT_EQ(s.expect, std::vector<std::string>{"Water"});
+      ++entries;
     } else {
       EXPECT_EQ(s.group, "skew");
       EXPECT_NE(p.right_delay_ms, 0);
@@ -85,6 +95,7 @@ TEST(SceneMatrix, CoversTheSpoiledAndCleanScenesAndEveryOneIsAValidSynthCommand)
   EXPECT_EQ(checked, static_cast<int>(scenes.size()));
   EXPECT_GE(groups["spoiled"], 40);
   EXPECT_GE(groups["clean"], 60);
+  EXPECT_EQ(entries, 10);
   EXPECT_EQ(water_kind_texture.size(), 8u * 4u);  // turbid, clear, foam, leaves, litter, glint, wind, rain x 4
   EXPECT_EQ(lens_kind_side.size(), 5u * 3u);      // mud, snow, drops, spray, dust x left, right, both
   EXPECT_EQ(clean_texture_mode.size(), 4u * 4u);  // every texture in every exposure mode

@@ -65,6 +65,8 @@ TEST(SceneOptions, BadValuesAreRefusedNamingTheOption) {
       {"--depth 50 --water-level 60", "--water-level"},
       {"--water-level 20 --depth-profile 0:30,10:15", "--water-level"},
       {"--water-attenuation -1", "--water-attenuation"},
+      {"--water-level 12 --water-surface 30", "--water-surface"},
+      {"--water-surface -3", "--water-surface"},
       {"--wet-fringe -2", "--wet-fringe"},
       {"--sun-elevation 1", "--sun-elevation"},
       {"--gain 2 --auto-exposure", "--gain"},

@@ -174,7 +174,8 @@ void expect_waterline_matches_cross_section(const SyntheticRendererConfig& p, st
   const cv::Matx33d R1 = renderer.truth_rotation();
   const cv::Matx33d world_from_left = renderer.camera_rotation(Camera::Left);
   const cv::Vec3d centre = renderer.camera_centre(Camera::Left, index);
-  const double z_water = p.conditions.water.level_mm - renderer.depth_mm(index);
+  const WaterConfig& w = p.conditions.water;
+  const double z_water = w.surface_depth_mm > 0 ? -w.surface_depth_mm : w.level_mm - renderer.depth_mm(index);
   std::vector<cv::Vec3d> pts;  // truth frame
   std::vector<double> world_z;
   for (double x = -0.7; x <= 0.7; x += 0.0001) {
@@ -235,6 +236,39 @@ TEST(SyntheticTruth, WaterlineMatchesTheRayCastCrossSection) {
   p.conditions.water.level_mm = 0;
   EXPECT_EQ(SyntheticRenderer(p).truth(2).water_depth_mm, 0);
   EXPECT_TRUE(std::isnan(SyntheticRenderer(p).truth(2).waterline_left_x_mm));
+}
+
+// A pool the rut runs into (WaterConfig::surface_depth_mm): the surface stays where it is while the rut
+// deepens, so the truth has no water while the rut is shallower and the rest of the depth after; the
+// waterline lies where the ray-cast cross-section crosses the surface's level.
+TEST(SyntheticTruth, APoolsSurfaceStaysAtItsDepthWhileTheRutDeepens) {
+  SyntheticRendererConfig p;
+  p.rig.image_size = {320, 240};
+  p.rig.roll_deg = 3;
+  p.rig.pitch_deg = 5;
+  p.rut.width_mm = 160, p.rut.bottom_width_mm = 60, p.rut.depth_mm = 30, p.rut.pile_width_mm = 30;
+  p.depth_profile = {{0, 30}, {10, 50}};  // 2 mm a frame
+  p.conditions.water.surface_depth_mm = 37;
+  const SyntheticRenderer renderer(p);
+  int dry = 0, wet = 0;
+  for (std::uint64_t i = 0; i <= 10; ++i) {
+    const RutTruth t = renderer.truth(i);
+    const double world_depth = 30 + 2.0 * static_cast<double>(i);
+    if (world_depth <= 37) {
+      EXPECT_EQ(t.water_depth_mm, 0) << "frame " << i;
+      EXPECT_TRUE(std::isnan(t.waterline_left_x_mm)) << "frame " << i;
+      ++dry;
+    } else {
+      // In the section's plane, as depth_mm: scaled alike.
+      EXPECT_NEAR(t.water_depth_mm / t.depth_mm, (world_depth - 37) / world_depth, 1e-9) << "frame " << i;
+      EXPECT_NEAR(t.water_depth_mm + t.waterline_depth_mm, t.depth_mm, 1e-9) << "frame " << i;
+      ++wet;
+    }
+  }
+  EXPECT_EQ(dry, 4);  // frames 0-3: 30-36 mm
+  EXPECT_EQ(wet, 7);
+  p.depth_profile = {{0, 45}, {10, 45}};
+  expect_waterline_matches_cross_section(p, 3);  // 8 mm of water at 37 mm below the ground
 }
 
 TEST(SyntheticTruth, DepthFollowsThePiecewiseLinearProfile) {

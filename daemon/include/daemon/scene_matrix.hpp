@@ -10,7 +10,11 @@
 //            gain and auto exposure in dim light, right cameras a few percent brighter or darker than
 //            the left: every frame should be measured within 1 mm (a refusal is a false alarm);
 //   tread    clean ruts with tread marks in their bottom (whose truth excludes the grooves);
-//   skew     free-running cameras: the right exposure a few milliseconds after the left at speed.
+//   skew     free-running cameras: the right exposure a few milliseconds after the left at speed;
+//   entry    a rut deepening into a pool (turbid, covered by debris, or clear): the first pairs dry, the
+//            next ones wet, the water deepening from under a millimetre on the first; like spoiled, every
+//            frame within 1 mm or refused (with Water where wet). The case where what a dry frame saw
+//            a moment ago is most like what the first wet one sees.
 // Every rut fits the rig's view with its piles and some ground beside them.
 // Each scene is a `rutd synth` command line, so any one can be rendered and replayed by hand. Parameters
 // are drawn once from fixed ranges by a fixed-seed generator (varied, not chosen to pass), so the list is
@@ -22,7 +26,7 @@ namespace rutd {
 
 struct MatrixScene {
   std::string name;   // unique, e.g. "water-clear-mud-07"
-  std::string group;  // "spoiled", "clean", "tread" or "skew"
+  std::string group;  // "spoiled", "clean", "tread", "skew" or "entry"
   std::string kind;   // e.g. "water-clear", "lens-mud-left", "clean-auto-dim"
   // What rightly refuses it: RutConditions signals, or a status with no condition bit (UNSYNCHRONISED),
   // config/rutd.dbc names.
@@ -31,7 +35,7 @@ struct MatrixScene {
 };
 
 // The default matrix: 40 water scenes and 24 more under floating debris, 15 lens faults, 4 at night, 64
-// clean scenes, 6 with tread, 6 skewed pairs.
+// clean scenes, 6 with tread, 6 skewed pairs, 10 entries into a pool.
 std::vector<MatrixScene> scene_matrix();
 
 }  // namespace rutd

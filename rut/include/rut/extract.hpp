@@ -80,6 +80,7 @@ struct RutWorkspace {
   // extract stage; measure()): the last waterline a frame confirmed, and the last lid it found.
   WaterlineMemory last_waterline;
   LidMemory last_lid;
+  DryMemory last_dry;
   // ... and the capture time of the last frame flagged Water (StripConfig::guard_after_water_s).
   bool water_seen = false;
   std::int64_t water_seen_ns = 0;

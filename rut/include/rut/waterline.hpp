@@ -84,6 +84,13 @@ struct WaterlineConfig {
   // the level of a lid found within memory_s read through: what stereo finds below it is the bottom in
   // the debris' gaps. Guard strips judge each frame alone.
   double memory_s = 0.5;
+  // The dry memory (DryMemory, StereoMeasurer::recall_dry): a finding of the rules that judge one
+  // strip's looks is overruled where the steady dry frames at most memory_s before read the bottom at
+  // the depth this frame's dry reading finds, within twice their combined standard uncertainty and
+  // dry_tolerance_mm (so is "steady": two dry frames running agreeing so), and both guard strips find it
+  // dry. Half the 1 mm a depth may be off: a rut deepening by less than that a frame reaches a pool's
+  // surface with less water over its bottom than that. 0: off.
+  double dry_tolerance_mm = 0.5;
 
   // A floating lid (foam, leaves, litter on the water) where no pair of steps marks the waterline
   // (foam on snow is as bright as the snow on one wall): the profile's deepest span is level, not much
@@ -188,6 +195,18 @@ struct LidMemory {
   // Found at this level by the frame before too, within memory_s: a lid seen twice running, not one
   // frame's chance finding.
   bool confirmed = false;
+};
+
+// The last frame that read the bottom dry by its own evidence: published OK with no condition, no water
+// rule raised on it (WaterlineConfig::memory_s). found false: none, or a frame flagged Water since.
+struct DryMemory {
+  std::int64_t t_ns = 0;  // that frame's capture time
+  bool found = false;
+  double depth_mm = 0.0;  // its depth and standard uncertainty, mm
+  double depth_u_mm = 0.0;
+  // That frame's depth agreed with the dry frame's before it (within memory_s, dry_tolerance): the rut
+  // is not deepening faster than that from frame to frame.
+  bool steady = false;
 };
 
 // What a brightness step must reach (find_waterline, find_level_span): min_step, and step_over_ground

@@ -41,7 +41,11 @@ bool parse_lens_side(std::string_view name, LensSide& out);
 // bottom was attenuated on its way down too. Radiance leaving the water is divided by n^2 (the n-squared
 // law of radiance across an interface). Submerged soil is wet, hence darker.
 struct WaterConfig {
-  double level_mm = 0;              // > 0: water this high above the rut bottom, below the rut's depth
+  double level_mm = 0;  // > 0: water this high above the rut bottom, below the rut's depth
+  // > 0 (level_mm 0): the surface lies this far below the undisturbed ground whatever the rut's depth on
+  // a frame (RutConfig::depth_profile): a pool the rut runs into, dry on frames where the rut is
+  // shallower (its bottom damp over the capillary fringe), its water deepening as the rut does.
+  double surface_depth_mm = 0;
   double refractive_index = 1.333;  // fresh water in visible light
   // Beer-Lambert extinction coefficient c, 1/mm. Clear rain water 0.001-0.01 (the bottom seen through
   // 20 mm keeps 80-98 % of its contrast); silt-laden rut water 0.1-1 (the bottom vanishes within a few

@@ -155,6 +155,9 @@ struct MeasurementDiagnostics {
   bool strips_together = false;   // an Uncertain depth published from the strip and its guards (read_strips_together)
   int strips_read = 0;            // ... from how many strips: the strip and one or both guards
   WaterRule water_rule = WaterRule::None;  // GuardStrip: a guard strip refused the frame
+  // The rule that would have flagged the frame Water by its looks, overruled as the steady dry frames a moment
+  // before read the bottom at its depth (StereoMeasurer::recall_dry); None: not overruled.
+  WaterRule dry_overruled = WaterRule::None;
 };
 
 // Everything one pair needs on its way through the stages. Frame pools hold these; every buffer is
@@ -261,6 +264,20 @@ class StereoMeasurer {
   // and its gaps are read as read_gaps reads them.
   void read_low_texture(FrameWork& w, RutWorkspace& workspace, const PairSignal& signal, int first) const;
   void read_through_water(FrameWork& w, RutWorkspace& workspace, const cv::Mat& measured, int first) const;
+  // A frame as it was before read_through_water judged it: its dry reading, and the memories it found.
+  struct DryReading {
+    RutMeasurement measurement;
+    RutGeometry geometry;
+    WaterlineMemory last_waterline;
+    LidMemory last_lid;
+  };
+  // Overrules a finding of the water rules that judge the strip's looks where the steady dry frames a
+  // moment before read the bottom at this frame's dry depth and both guard strips find it dry
+  // (MeasurementDiagnostics::dry_overruled; measurer.cpp says why). remember_dry keeps the DryMemory,
+  // after every rule has judged the frame; guards_dry measures both guards on the frame.
+  void recall_dry(FrameWork& w, RutWorkspace& workspace, const DryReading& before) const;
+  void remember_dry(const FrameWork& w, RutWorkspace& workspace) const;
+  bool guards_dry(FrameWork& w) const;
   void read_waterline(FrameWork& w, RutWorkspace& workspace, const WaterlineMemory& last, const LidMemory& last_lid,
                       const LevelSpan& lid, double lid_u, double y_mm) const;
   void weigh_candidate_waterline(FrameWork& w, RutWorkspace& workspace, const Waterline& line, double y_mm) const;
