@@ -270,7 +270,8 @@ void read_strip(Section s, StripConfig& strip) {
       .get<int>("guards", strip.guards, in_range(0, 2))
       .get<double>("guard_spacing", strip.guard_spacing, in_range(0.05, 0.5))
       .get<bool>("guards_always", strip.guards_always)
-      .get<double>("guard_after_water_s", strip.guard_after_water_s, in_range(0.0, 3600.0));
+      .get<double>("guard_after_water_s", strip.guard_after_water_s, in_range(0.0, 3600.0))
+      .get<double>("frames_together_s", strip.frames_together_s, in_range(0.0, 2.0));
   if (first_row && strip.rows == 0) s.fail("first_row", "needs rows too");
   strip.first_row = first_row;
   s.finish();

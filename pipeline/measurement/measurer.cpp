@@ -202,7 +202,8 @@ void StereoMeasurer::read_strips_together(FrameWork& w, const RutWorkspace& work
   if (!confirm && (!guards_ || asked || m.status != RutStatus::Uncertain || m.conditions != kConditionUncertain))
     return;
   if (!std::isfinite(m.depth_uncertainty_mm) || !(m.depth_uncertainty_mm > 0.0)) return refuse();
-  std::array<std::pair<double, double>, 3> depths;
+  // The strip's and up to two guards' depths, then up to kRecentDepths of the last frames'.
+  std::array<std::pair<double, double>, 3 + RutWorkspace::kRecentDepths> depths;
   std::size_t n = 0;
   depths[n++] = {m.depth_mm, m.depth_uncertainty_mm};
   {
@@ -212,34 +213,55 @@ void StereoMeasurer::read_strips_together(FrameWork& w, const RutWorkspace& work
       ++w.diag.guard_strips;
       const bool clean = g.conditions == 0 || g.conditions == kConditionUncertain;
       if ((g.status == RutStatus::Ok || g.status == RutStatus::Uncertain) && clean && usable(g.depth_uncertainty_mm) &&
-          n < depths.size())
+          n < 3)
         depths[n++] = {g.depth_mm, g.depth_uncertainty_mm};
     }
   }
+  if (!usable(m.depth_uncertainty_mm)) return refuse();
+  // The readings agree as their uncertainties say (chi-square of n - 1 degrees of freedom under its 95th
+  // percentile), and together they are precise enough: their weighted mean is published.
+  const auto publish = [&](std::size_t k) {
+    constexpr std::array<double, 7> kChi2_95 = {0.0, 3.84, 5.99, 7.81, 9.49, 11.07, 12.59};
+    double sw = 0.0, swd = 0.0;
+    for (std::size_t i = 0; i < k; ++i) {
+      const double wt = 1.0 / (depths[i].second * depths[i].second);
+      sw += wt;
+      swd += wt * depths[i].first;
+    }
+    const double mean = swd / sw, u = 1.0 / std::sqrt(sw);
+    double chi2 = 0.0;
+    for (std::size_t i = 0; i < k; ++i) chi2 += std::pow((depths[i].first - mean) / depths[i].second, 2);
+    if (k < 2 || k > kChi2_95.size() || !(chi2 <= kChi2_95[k - 1]) || !(u <= limit)) return false;
+    m.depth_mm = mean;
+    m.depth_uncertainty_mm = u;
+    m.status = RutStatus::Ok;
+    m.conditions = 0;
+    m.quality = depth_quality(u, limit);
+    w.diag.strips_together = true;
+    return true;
+  };
   // A depth the low-texture reading alone found needs both guards; one found Uncertain by the first
   // reading, whose noise estimate holds, one guard at least (a guard in a gap or at the image's edge
   // need not cost the frame).
-  if (n < (confirm ? 3u : 2u) || !usable(m.depth_uncertainty_mm)) return refuse();
-  double sw = 0.0, swd = 0.0;
-  for (std::size_t i = 0; i < n; ++i) {
-    const double wt = 1.0 / (depths[i].second * depths[i].second);
-    sw += wt;
-    swd += wt * depths[i].first;
+  const std::size_t strips = n;
+  if (n >= (confirm ? 3u : 2u) && publish(n)) {
+    w.diag.strips_read = static_cast<int>(n);
+    return;
   }
-  const double mean = swd / sw, u = 1.0 / std::sqrt(sw);
-  double chi2 = 0.0;
-  for (std::size_t i = 0; i < n; ++i) chi2 += std::pow((depths[i].first - mean) / depths[i].second, 2);
-  // The strips agree as their uncertainties say (chi-square of n - 1 degrees of freedom under its 95th
-  // percentile), and together they are precise enough.
-  const double chi2_95 = n == 2 ? 3.84 : 5.99;
-  if (!(chi2 <= chi2_95) || !(u <= limit)) return refuse();
-  m.depth_mm = mean;
-  m.depth_uncertainty_mm = u;
-  m.status = RutStatus::Ok;
-  m.conditions = 0;
-  m.quality = depth_quality(u, limit);
-  w.diag.strips_together = true;
-  w.diag.strips_read = static_cast<int>(n);
+  if (confirm) return refuse();
+  // Else with the last frames' own depths, newest first, captured at most frames_together_s before: the
+  // rut along that stretch of travel, where it has not changed by more than the readings' noise (which
+  // the chi-square test asks). Not a frame a moment after water (guards_asked returned above).
+  const double window_s = config_.strip.frames_together_s;
+  for (std::size_t k = 0; k < workspace.recent_count && window_s > 0.0; ++k) {
+    const auto& r =
+        workspace.recent[(workspace.recent_next + RutWorkspace::kRecentDepths - 1 - k) % RutWorkspace::kRecentDepths];
+    if (within_s(r.t_ns, w.frame.t_ns, window_s) && n < depths.size()) depths[n++] = {r.depth_mm, r.u_mm};
+  }
+  if (n > strips && publish(n)) {
+    w.diag.strips_read = static_cast<int>(strips);
+    w.diag.frames_read = static_cast<int>(n - strips);
+  }
 }
 
 MatchContext StereoMeasurer::make_match_context() const {
@@ -879,9 +901,25 @@ bool StereoMeasurer::guards_dry(FrameWork& w) const {
   return true;
 }
 
-void StereoMeasurer::remember_dry(const FrameWork& w, RutWorkspace& workspace) const {
+void StereoMeasurer::remember_frame(const FrameWork& w, RutWorkspace& workspace) const {
   const RutMeasurement& m = w.measurement;
   DryMemory& last = workspace.last_dry;
+  // The frame's depth, for the next frames to be read with (read_strips_together): an OK frame's measured
+  // by its strips (alone or together), or an UNCERTAIN one's for its noise alone (as the strip read it).
+  // Not one read with the frames before already (each reading counts once in a mean), nor one the dry
+  // memory published.
+  const double limit = config_.rut.max_depth_uncertainty_mm;
+  const double u = m.depth_uncertainty_mm;
+  const bool own = w.diag.frames_read == 0 && w.diag.dry_overruled == WaterRule::None;
+  const bool ok_alone = m.status == RutStatus::Ok && m.conditions == 0;
+  const bool noisy = m.status == RutStatus::Uncertain && m.conditions == kConditionUncertain;
+  if ((m.conditions & kConditionWater) != 0) {
+    workspace.recent_count = 0;
+  } else if (own && (ok_alone || noisy) && std::isfinite(u) && u > 0.0 && u <= 3.0 * limit) {
+    workspace.recent[workspace.recent_next] = {w.frame.t_ns, m.depth_mm, u};
+    workspace.recent_next = (workspace.recent_next + 1) % RutWorkspace::kRecentDepths;
+    workspace.recent_count = std::min(workspace.recent_count + 1, RutWorkspace::kRecentDepths);
+  }
   if ((m.conditions & kConditionWater) != 0) {
     last = DryMemory{};
   } else if (m.status == RutStatus::Ok && m.conditions == 0 && w.diag.dry_overruled == WaterRule::None) {
@@ -1025,7 +1063,7 @@ void StereoMeasurer::extract(FrameWork& w, RutWorkspace& workspace) const {
     w.diag.water_rule = WaterRule::FrameCheck;
   read_strips_together(w, workspace);
   check_guards(w, workspace);
-  remember_dry(w, workspace);
+  remember_frame(w, workspace);
   w.geometry = workspace.geometry;
   w.measured = true;
   w.diag.rut_ms = ms_since(t0);

@@ -68,9 +68,10 @@ std::string dump(const RutdConfig& c) {
     << "\ngpu_device=" << m.engine_config.gpu_device << "\nsgm_paths=" << m.engine_config.sgm_paths
     << "\nsgm_segment=" << m.engine_config.sgm_segment << "\ndic=" << m.dic << "," << m.gap_fill_half_window
     << "\nstrip=" << m.strip.rows << "," << m.strip.first_row.value_or(-1) << "," << m.strip.guards << ","
-    << m.strip.guard_spacing << "," << m.strip.guards_always << "," << m.strip.guard_after_water_s
-    << "\nrange=" << m.range.near_mm << "," << m.range.far_mm << "\nrut=" << m.rut.min_rut_width_mm << ","
-    << m.rut.max_rut_width_mm << "," << m.rut.fit_window_mm << "," << m.rut.bin_mm << "," << m.rut.min_rut_depth_mm;
+    << m.strip.guard_spacing << "," << m.strip.guards_always << "," << m.strip.guard_after_water_s << ","
+    << m.strip.frames_together_s << "\nrange=" << m.range.near_mm << "," << m.range.far_mm
+    << "\nrut=" << m.rut.min_rut_width_mm << "," << m.rut.max_rut_width_mm << "," << m.rut.fit_window_mm << ","
+    << m.rut.bin_mm << "," << m.rut.min_rut_depth_mm;
   o << "\ncan=" << c.can.extended << "," << int(c.can.source_address) << "," << int(c.can.priority);
   o << "\nsinks=" << c.sinks.socketcan << "," << c.sinks.candump << "," << c.sinks.can_interface_name << ","
     << c.sinks.csv;
@@ -249,15 +250,17 @@ TEST(Config, GuardStripsAndTheirSpacing) {
   EXPECT_DOUBLE_EQ(defaults.strip.guard_spacing, 0.25);
   EXPECT_FALSE(defaults.strip.guards_always);
   EXPECT_DOUBLE_EQ(defaults.strip.guard_after_water_s, 0.5);
+  EXPECT_DOUBLE_EQ(defaults.strip.frames_together_s, 0.2);
   const MeasurerConfig set = parse_config(
                                  "measurement:\n  strip:\n    guards: 1\n    guard_spacing: 0.3\n"
-                                 "    guards_always: true\n    guard_after_water_s: 2.5\n",
+                                 "    guards_always: true\n    guard_after_water_s: 2.5\n    frames_together_s: 0\n",
                                  "test.yaml")
                                  .measurement;
   EXPECT_EQ(set.strip.guards, 1);
   EXPECT_DOUBLE_EQ(set.strip.guard_spacing, 0.3);
   EXPECT_TRUE(set.strip.guards_always);
   EXPECT_DOUBLE_EQ(set.strip.guard_after_water_s, 2.5);
+  EXPECT_DOUBLE_EQ(set.strip.frames_together_s, 0.0);
   EXPECT_EQ(parse_config("measurement:\n  strip:\n    guards: 0\n", "test.yaml").measurement.strip.guards, 0);
   expect_error("measurement:\n  strip:\n    guards: 3\n", {"test.yaml", "line 3", "measurement.strip.guards"});
   expect_error("measurement:\n  strip:\n    guard_spacing: 0.6\n",
@@ -266,6 +269,8 @@ TEST(Config, GuardStripsAndTheirSpacing) {
                {"test.yaml", "line 3", "measurement.strip.guard_after_water_s"});
   expect_error("measurement:\n  strip:\n    guards_always: often\n",
                {"test.yaml", "line 3", "measurement.strip.guards_always"});
+  expect_error("measurement:\n  strip:\n    frames_together_s: 3\n",
+               {"test.yaml", "line 3", "measurement.strip.frames_together_s"});
 }
 
 // A file written for an older release: each moved key is refused with one error naming the file, the

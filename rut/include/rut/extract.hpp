@@ -6,6 +6,8 @@
 // the camera), so the results do not depend on image resolution. Nothing here throws or allocates on
 // the per-frame path once the caller-owned CrossSection and RutWorkspace have grown to the largest
 // section seen. Not thread-safe per object: use one CrossSection/RutWorkspace per thread.
+#include <array>
+#include <cstddef>
 #include <cstdint>
 #include <vector>
 
@@ -81,6 +83,16 @@ struct RutWorkspace {
   WaterlineMemory last_waterline;
   LidMemory last_lid;
   DryMemory last_dry;
+  // ... and the strip's own depths of the last frames that were OK, or UNCERTAIN for their noise alone,
+  // away from water (StripConfig::frames_together_s): a ring, `recent_count` of them, the newest at
+  // recent_next - 1.
+  struct RecentDepth {
+    std::int64_t t_ns = 0;
+    double depth_mm = 0.0, u_mm = 0.0;
+  };
+  static constexpr std::size_t kRecentDepths = 4;
+  std::array<RecentDepth, kRecentDepths> recent{};
+  std::size_t recent_count = 0, recent_next = 0;
   // ... and the capture time of the last frame flagged Water (StripConfig::guard_after_water_s).
   bool water_seen = false;
   std::int64_t water_seen_ns = 0;

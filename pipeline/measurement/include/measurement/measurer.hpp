@@ -54,6 +54,13 @@ struct StripConfig {
   // lid's debris lit like the soil); dry ground, most of a drive, then costs nothing.
   bool guards_always = false;
   double guard_after_water_s = 0.5;
+  // A depth UNCERTAIN for its noise alone that its strips cannot publish together (read_strips_together)
+  // is read with the strip's own depths of the last frames (up to RutWorkspace::kRecentDepths), captured
+  // at most frames_together_s before it, that were OK or UNCERTAIN for their noise alone, away from water:
+  // where all agree as their uncertainties say and their combined uncertainty is within the limit, their
+  // weighted mean is published. The rut over that stretch of travel, as the strips together give the rut
+  // over half the image. 0: off.
+  double frames_together_s = 0.2;
 };
 
 struct MeasurerConfig {
@@ -154,6 +161,7 @@ struct MeasurementDiagnostics {
   bool low_texture_read = false;  // read again with the noise judging the correlation (read_low_texture), in rut_ms
   bool strips_together = false;   // an Uncertain depth published from the strip and its guards (read_strips_together)
   int strips_read = 0;            // ... from how many strips: the strip and one or both guards
+  int frames_read = 0;  // ... and how many of the last frames' depths with them (StripConfig::frames_together_s)
   WaterRule water_rule = WaterRule::None;  // GuardStrip: a guard strip refused the frame
   // The rule that would have flagged the frame Water by its looks, overruled as the steady dry frames a moment
   // before read the bottom at its depth (StereoMeasurer::recall_dry); None: not overruled.
@@ -273,10 +281,11 @@ class StereoMeasurer {
   };
   // Overrules a finding of the water rules that judge the strip's looks where the steady dry frames a
   // moment before read the bottom at this frame's dry depth and both guard strips find it dry
-  // (MeasurementDiagnostics::dry_overruled; measurer.cpp says why). remember_dry keeps the DryMemory,
-  // after every rule has judged the frame; guards_dry measures both guards on the frame.
+  // (MeasurementDiagnostics::dry_overruled; measurer.cpp says why). remember_frame keeps the DryMemory and
+  // the recent depths (RutWorkspace::recent) after every rule has judged the frame; guards_dry measures
+  // both guards on the frame.
   void recall_dry(FrameWork& w, RutWorkspace& workspace, const DryReading& before) const;
-  void remember_dry(const FrameWork& w, RutWorkspace& workspace) const;
+  void remember_frame(const FrameWork& w, RutWorkspace& workspace) const;
   bool guards_dry(FrameWork& w) const;
   void read_waterline(FrameWork& w, RutWorkspace& workspace, const WaterlineMemory& last, const LidMemory& last_lid,
                       const LevelSpan& lid, double lid_u, double y_mm) const;
