@@ -202,8 +202,9 @@ void StereoMeasurer::read_strips_together(FrameWork& w, const RutWorkspace& work
   if (!confirm && (!guards_ || asked || m.status != RutStatus::Uncertain || m.conditions != kConditionUncertain))
     return;
   if (!std::isfinite(m.depth_uncertainty_mm) || !(m.depth_uncertainty_mm > 0.0)) return refuse();
-  // The strip's and up to two guards' depths, then up to kRecentDepths of the last frames'.
-  std::array<std::pair<double, double>, 3 + RutWorkspace::kRecentDepths> depths;
+  // The strip's and up to two guards' depths (kStrips), then up to kRecentDepths of the last frames'.
+  constexpr std::size_t kStrips = 3;
+  std::array<std::pair<double, double>, kStrips + RutWorkspace::kRecentDepths> depths;
   std::size_t n = 0;
   depths[n++] = {m.depth_mm, m.depth_uncertainty_mm};
   {
@@ -213,7 +214,7 @@ void StereoMeasurer::read_strips_together(FrameWork& w, const RutWorkspace& work
       ++w.diag.guard_strips;
       const bool clean = g.conditions == 0 || g.conditions == kConditionUncertain;
       if ((g.status == RutStatus::Ok || g.status == RutStatus::Uncertain) && clean && usable(g.depth_uncertainty_mm) &&
-          n < 3)
+          n < kStrips)
         depths[n++] = {g.depth_mm, g.depth_uncertainty_mm};
     }
   }
@@ -910,19 +911,22 @@ void StereoMeasurer::remember_frame(const FrameWork& w, RutWorkspace& workspace)
   // memory published.
   const double limit = config_.rut.max_depth_uncertainty_mm;
   const double u = m.depth_uncertainty_mm;
-  const bool own = w.diag.frames_read == 0 && w.diag.dry_overruled == WaterRule::None;
-  const bool ok_alone = m.status == RutStatus::Ok && m.conditions == 0;
-  const bool noisy = m.status == RutStatus::Uncertain && m.conditions == kConditionUncertain;
+  // A frame flagged Water clears both memories.
   if ((m.conditions & kConditionWater) != 0) {
     workspace.recent_count = 0;
-  } else if (own && (ok_alone || noisy) && std::isfinite(u) && u > 0.0 && u <= 3.0 * limit) {
+    last = DryMemory{};
+    return;
+  }
+  const bool not_overruled = w.diag.dry_overruled == WaterRule::None;
+  const bool ok_alone = m.status == RutStatus::Ok && m.conditions == 0;
+  const bool noisy = m.status == RutStatus::Uncertain && m.conditions == kConditionUncertain;
+  if (w.diag.frames_read == 0 && not_overruled && (ok_alone || noisy) && std::isfinite(u) && u > 0.0 &&
+      u <= 3.0 * limit) {
     workspace.recent[workspace.recent_next] = {w.frame.t_ns, m.depth_mm, u};
     workspace.recent_next = (workspace.recent_next + 1) % RutWorkspace::kRecentDepths;
     workspace.recent_count = std::min(workspace.recent_count + 1, RutWorkspace::kRecentDepths);
   }
-  if ((m.conditions & kConditionWater) != 0) {
-    last = DryMemory{};
-  } else if (m.status == RutStatus::Ok && m.conditions == 0 && w.diag.dry_overruled == WaterRule::None) {
+  if (ok_alone && not_overruled) {
     const bool steady = last.found && within_memory(last.t_ns, w.frame.t_ns, config_.water) &&
                         agree_dry(last, m.depth_mm, m.depth_uncertainty_mm, config_.water);
     last = DryMemory{w.frame.t_ns, true, m.depth_mm, m.depth_uncertainty_mm, steady};
