@@ -80,7 +80,14 @@ int argmax_valid(const std::vector<double>& h, int lo, int hi) {
 
 // Walks from the bottom bin k in direction dir (-1/+1) to where h rises to the line (h >= 0),
 // interpolating the crossing linearly between the bins around it; NaN bins are stepped over.
-void find_crossing(const std::vector<double>& h, const Grid& g, int k, int dir, double& x, int& bin, bool& at_edge) {
+// Where the data end first, the wall may still have come up to the ground: ground a little below a
+// line that leans on the other side's ground (a crowned track, a line fitted to one side first) never
+// reaches h >= 0. The crossing is then where the profile rises to within tau of the line and stays
+// there, at least min_run valid bins to the data's end: a flat run at the line's level is ground, the
+// wall ended before it. Only a profile still below the line by more than tau at the edge (a wall cut
+// off by the view, or too little ground beyond it) is at the edge.
+void find_crossing(const std::vector<double>& h, const Grid& g, int k, int dir, double tau, int min_run, double& x,
+                   int& bin, bool& at_edge) {
   int last = k;
   for (int j = k + dir; j >= 0 && j < g.n; j += dir) {
     if (std::isnan(h[j])) continue;
@@ -96,12 +103,33 @@ void find_crossing(const std::vector<double>& h, const Grid& g, int k, int dir, 
   x = g.x(last);
   bin = last;
   at_edge = true;
+  // Walking back in from the data edge: the run of valid bins within tau of the line, and the deeper
+  // bin that ends it.
+  int run = 0, start = -1, below = -1;
+  for (int j = last; j != k; j -= dir) {
+    if (std::isnan(h[j])) continue;
+    if (h[j] < -tau) {
+      below = j;
+      break;
+    }
+    start = j;
+    ++run;
+  }
+  if (run < min_run || below < 0) return;
+  const double t = (h[below] + tau) / (h[below] - h[start]);  // h[below] < -tau <= h[start]
+  x = g.x(below) + t * (g.x(start) - g.x(below));
+  bin = start;
+  at_edge = false;
 }
 
-Opening find_opening(const std::vector<double>& h, const Grid& g, int k) {
+// The opening's crossings (find_crossing) with its tolerance for ground below the line: 3 % of the depth
+// at k, at least the pile walk's step (kMinStep, 5 smoothed noise sigmas), over a run of a fit window.
+Opening find_opening(const std::vector<double>& h, const Grid& g, int k, const Profile& p) {
+  const double tau = std::max({kMinStep, 5.0 * p.sigma_fit, -0.03 * h[k]});
+  const int min_run = 2 * p.half;
   Opening o;
-  find_crossing(h, g, k, -1, o.left_x, o.left_bin, o.left_edge);
-  find_crossing(h, g, k, +1, o.right_x, o.right_bin, o.right_edge);
+  find_crossing(h, g, k, -1, tau, min_run, o.left_x, o.left_bin, o.left_edge);
+  find_crossing(h, g, k, +1, tau, min_run, o.right_x, o.right_bin, o.right_edge);
   return o;
 }
 
@@ -483,7 +511,7 @@ RutMeasurement extract_rut(const CrossSection& section, const RutConfig& params,
       }
       break;
     }
-    const Opening o = find_opening(ws.h_fit, p.grid, k);
+    const Opening o = find_opening(ws.h_fit, p.grid, k, p);
     if (!fit_ground(section, p, disturbed_zone(ws, line, o, p, ground_gradient(params, p)), params, ws, line, ground)) {
       out.status = RutStatus::NoGround;
       return out;
@@ -512,7 +540,7 @@ RutMeasurement extract_rut(const CrossSection& section, const RutConfig& params,
     out.status = RutStatus::NoRut;
     return out;
   }
-  const Opening o = find_opening(ws.h_fit, p.grid, k);
+  const Opening o = find_opening(ws.h_fit, p.grid, k, p);
   // Depth: the largest value of -h, refined by a fit over the deepest region.
   ws.a.resize(n);
   ws.b.resize(n);

@@ -404,6 +404,43 @@ TEST(ExtractRut, RutWithOnlyItsPileOutsideIsNotAtEdge) {
   EXPECT_NEAR(m.left_pile_mm, s.left_pile, 0.1);
 }
 
+// Real ground is not one plane: beyond a wall it may lie a little below the line the other side's
+// ground fixes (a crowned or cambered track). The wall then never rises to that line, yet the rut ends
+// where the profile has come up to the ground and runs on flat: it is in view, not at the edge. The
+// opening ends 80 mm before the section's edge, the ground beyond it lies 0.3, 0.6 or 0.9 mm further
+// from the camera than the left side's (3 % of the 40 mm depth, the tolerance, is 1.2); the depth is
+// read against a line between the two sides, and the width where the wall, meeting the ground
+// tangentially, comes within the tolerance of it (up to 5 mm early for a 50 mm wide wall).
+TEST(ExtractRut, GroundALittleBelowTheLineBeyondTheWallIsNotAnEdge) {
+  RutShape s;
+  s.right_pile = 0.0;
+  s.center_u = 140.0;  // opening from X = 40 to 240; the section ends at 319
+  int checked = 0;
+  for (double drop : {0.3, 0.6, 0.9}) {
+    CrossSection c = make_section(s, View{}, kX0, kBins, 1.0, 0.05, 7);
+    for (int i = 0; i < kBins; ++i) {
+      const double x = kX0 + i;
+      if (x > 240.0) c.z_mm[static_cast<std::size_t>(i)] += drop;
+    }
+    const RutMeasurement m = measure(c);
+    ASSERT_EQ(m.status, RutStatus::Ok) << "drop " << drop << ": " << to_string(m.status);
+    EXPECT_NEAR(m.depth_mm, s.depth - 0.5 * drop, 0.5 * drop + 0.1) << "drop " << drop;
+    EXPECT_NEAR(m.width_mm, s.width(), 6.0) << "drop " << drop;
+    ++checked;
+  }
+  EXPECT_EQ(checked, 3);
+  // A wall the view cuts 3.8 mm below the ground (nothing measured beyond X = 230) stays at the edge,
+  // and so does one that levels off there (a shelf, not ground).
+  CrossSection cut = make_section(s, View{}, kX0, kBins, 1.0, 0.05, 7);
+  CrossSection shelf = cut;
+  for (int i = 231 - int(kX0); i < kBins; ++i) {
+    cut.z_mm[static_cast<std::size_t>(i)] = kNaN;
+    shelf.z_mm[static_cast<std::size_t>(i)] = shelf.z_mm[static_cast<std::size_t>(i - 1)];
+  }
+  EXPECT_EQ(measure(cut).status, RutStatus::RutAtEdge);
+  EXPECT_EQ(measure(shelf).status, RutStatus::RutAtEdge);
+}
+
 TEST(ExtractRut, OnePileMissing) {
   RutShape s;
   s.depth = 40.0;
