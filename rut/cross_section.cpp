@@ -40,6 +40,27 @@ double trimmed_mean(float* first, float* last, double trim_fraction) {
   return sum / double(n - 2 * trim);
 }
 
+// Least-squares dZ/dY of the points [first, last) (z, y paired); NaN where Y spans too little to tell.
+double slope_along_y(const float* z, const float* y, long n, double min_span) {
+  if (n < 8) return std::numeric_limits<double>::quiet_NaN();
+  double my = 0.0, mz = 0.0, lo = y[0], hi = y[0];
+  for (long i = 0; i < n; ++i) {
+    my += y[i];
+    mz += z[i];
+    lo = std::min(lo, double(y[i]));
+    hi = std::max(hi, double(y[i]));
+  }
+  if (hi - lo < min_span) return std::numeric_limits<double>::quiet_NaN();
+  my /= double(n);
+  mz /= double(n);
+  double syy = 0.0, syz = 0.0;
+  for (long i = 0; i < n; ++i) {
+    syy += (y[i] - my) * (y[i] - my);
+    syz += (y[i] - my) * (z[i] - mz);
+  }
+  return syz / syy;
+}
+
 }  // namespace
 
 void reduce_to_cross_section(const cv::Mat& xyz, const RutConfig& params, CrossSection& out) {
@@ -48,18 +69,23 @@ void reduce_to_cross_section(const cv::Mat& xyz, const RutConfig& params, CrossS
   out.x0_mm = 0.0;
   out.z_mm.clear();
   out.count.clear();
+  out.along_slope = 0.0;
+  out.ray_elevation = 0.0;
   if (xyz.empty() || xyz.type() != CV_32FC3) return;
 
   // Pass 1: extent and median of X (a median, so that a few absurd reprojections cannot move it).
   double xmin = std::numeric_limits<double>::infinity();
   double xmax = -xmin;
+  double elevation = 0.0;
   out.scratch_z.clear();
   for_each_valid(xyz, [&](const cv::Vec3f& p) {
     xmin = std::min(xmin, double(p[0]));
     xmax = std::max(xmax, double(p[0]));
+    elevation += double(p[1]) / double(p[2]);
     out.scratch_z.push_back(p[0]);
   });
   if (out.scratch_z.empty()) return;
+  out.ray_elevation = elevation / double(out.scratch_z.size());
   auto mid = out.scratch_z.begin() + static_cast<long>(out.scratch_z.size() / 2);
   std::nth_element(out.scratch_z.begin(), mid, out.scratch_z.end());
   const double half_span = 0.5 * params.max_section_mm;
@@ -82,12 +108,34 @@ void reduce_to_cross_section(const cv::Mat& xyz, const RutConfig& params, CrossS
   out.scratch_offset[0] = 0;
   for (int b = 0; b < nbins; ++b) out.scratch_offset[b + 1] = out.scratch_offset[b] + out.count[b];
   out.scratch_z.resize(out.scratch_offset[nbins]);
+  out.scratch_y.resize(out.scratch_offset[nbins]);
   for_each_valid(xyz, [&](const cv::Vec3f& p) {
     const int b = bin_of(p[0]);
-    if (b >= 0 && b < nbins) out.scratch_z[out.scratch_offset[b]++] = p[2];
+    if (b >= 0 && b < nbins) {
+      out.scratch_y[out.scratch_offset[b]] = p[1];
+      out.scratch_z[out.scratch_offset[b]++] = p[2];
+    }
   });
-  // scratch_offset[b] now holds the end of bin b, i.e. the start of bin b + 1.
+  // scratch_offset[b] now holds the end of bin b, i.e. the start of bin b + 1. Each bin's slope along Y
+  // before its trimmed mean reorders its Z: most bins see ground or a bottom running along travel, so
+  // their median is the ground's (a pitched rig's), and a few mismatched points move one bin's only.
+  // A bin must span a few millimetres of Y (a strip of rows does: 48 rows at 300 mm and f = 550 px
+  // span 26 mm).
+  out.scratch_slope.clear();
   int start = 0;
+  for (int b = 0; b < nbins; ++b) {
+    const int end = out.scratch_offset[b];
+    const double s = slope_along_y(out.scratch_z.data() + start, out.scratch_y.data() + start, end - start, 4.0);
+    if (std::isfinite(s)) out.scratch_slope.push_back(s);
+    start = end;
+  }
+  if (!out.scratch_slope.empty()) {
+    auto m = out.scratch_slope.begin() + static_cast<long>(out.scratch_slope.size() / 2);
+    std::nth_element(out.scratch_slope.begin(), m, out.scratch_slope.end());
+    // Beyond 45 degrees the strip sees no ground a rig looks down on: nothing to level.
+    out.along_slope = std::abs(*m) <= 1.0 ? *m : 0.0;
+  }
+  start = 0;
   for (int b = 0; b < nbins; ++b) {
     const int end = out.scratch_offset[b];
     if (end > start) {

@@ -8,6 +8,8 @@
 #include <cstdlib>
 #include <limits>
 #include <mutex>
+#include <optional>
+#include <span>
 #include <stdexcept>
 #include <string>
 #include <utility>
@@ -219,47 +221,79 @@ void StereoMeasurer::read_strips_together(FrameWork& w, const RutWorkspace& work
     }
   }
   if (!usable(m.depth_uncertainty_mm)) return refuse();
-  // The readings agree as their uncertainties say (chi-square of n - 1 degrees of freedom under its 95th
-  // percentile), and together they are precise enough: their weighted mean is published.
-  const auto publish = [&](std::size_t k) {
+  // The readings agree as their uncertainties say (chi-square of their number less one degrees of
+  // freedom under its 95th percentile): their weighted mean and its uncertainty, else nullopt.
+  using Reading = std::pair<double, double>;  // depth, u (mm)
+  const auto combine = [](std::span<const Reading> readings) -> std::optional<Reading> {
     constexpr std::array<double, 7> kChi2_95 = {0.0, 3.84, 5.99, 7.81, 9.49, 11.07, 12.59};
+    const std::size_t k = readings.size();
+    if (k < 2 || k > kChi2_95.size()) return std::nullopt;
     double sw = 0.0, swd = 0.0;
-    for (std::size_t i = 0; i < k; ++i) {
-      const double wt = 1.0 / (depths[i].second * depths[i].second);
+    for (const Reading& r : readings) {
+      const double wt = 1.0 / (r.second * r.second);
       sw += wt;
-      swd += wt * depths[i].first;
+      swd += wt * r.first;
     }
-    const double mean = swd / sw, u = 1.0 / std::sqrt(sw);
+    const double mean = swd / sw;
     double chi2 = 0.0;
-    for (std::size_t i = 0; i < k; ++i) chi2 += std::pow((depths[i].first - mean) / depths[i].second, 2);
-    if (k < 2 || k > kChi2_95.size() || !(chi2 <= kChi2_95[k - 1]) || !(u <= limit)) return false;
-    m.depth_mm = mean;
-    m.depth_uncertainty_mm = u;
+    for (const Reading& r : readings) chi2 += std::pow((r.first - mean) / r.second, 2);
+    if (!(chi2 <= kChi2_95[k - 1])) return std::nullopt;
+    // Readings that scatter more than their uncertainties say (chi2 over its degrees of freedom above 1:
+    // Birge's ratio) widen the mean's by that much: one reading's u too small (a guard with little ground
+    // beside the rut, measured 3.1 mm off at u 0.70) must not pull the mean and shrink its u at once.
+    return Reading{mean, std::sqrt(std::max(1.0, chi2 / double(k - 1)) / sw)};
+  };
+  // Published where together they are precise enough.
+  const auto publish = [&](const std::optional<Reading>& together) {
+    if (!together || !(together->second <= limit)) return false;
+    m.depth_mm = together->first;
+    m.depth_uncertainty_mm = together->second;
     m.status = RutStatus::Ok;
     m.conditions = 0;
-    m.quality = depth_quality(u, limit);
+    m.quality = depth_quality(together->second, limit);
     w.diag.strips_together = true;
     return true;
+  };
+  // The last frames' own depths, newest first, captured at most frames_together_s before, from depths[n]
+  // on: the rut along that stretch of travel. Not a frame a moment after water (guards_asked returned
+  // above). Returns how many.
+  const double window_s = config_.strip.frames_together_s;
+  const auto add_recent = [&](std::size_t from) {
+    std::size_t added = 0;
+    for (std::size_t k = 0; k < workspace.recent_count && window_s > 0.0; ++k) {
+      const auto& r =
+          workspace.recent[(workspace.recent_next + RutWorkspace::kRecentDepths - 1 - k) % RutWorkspace::kRecentDepths];
+      if (within_s(r.t_ns, w.frame.t_ns, window_s) && from + added < depths.size())
+        depths[from + added++] = {r.depth_mm, r.u_mm};
+    }
+    return added;
   };
   // A depth the low-texture reading alone found needs both guards; one found Uncertain by the first
   // reading, whose noise estimate holds, one guard at least (a guard in a gap or at the image's edge
   // need not cost the frame).
   const std::size_t strips = n;
-  if (n >= (confirm ? 3u : 2u) && publish(n)) {
-    w.diag.strips_read = static_cast<int>(n);
-    return;
+  const std::size_t recent = add_recent(strips);
+  const auto together = n >= (confirm ? 3u : 2u) ? combine(std::span(depths).first(n)) : std::nullopt;
+  if (together) {
+    // The strips read one frame, and may share its error where the noise estimate fails (measured in
+    // snow: a strip and a guard both 1.2-1.4 mm deep at u 0.45-0.53, agreeing; a guard 1.3 mm off at
+    // u 0.39 beside a noisier strip): their mean must also agree with the last frames' own depths where
+    // these agree among themselves (another stretch of the same rut, other noise), against their
+    // weighted mean. It is the strips' mean that is published.
+    const auto before =
+        recent == 1 ? std::optional{depths[strips]} : combine(std::span(depths).subspan(strips, recent));
+    const std::array<Reading, 2> pair = {*together, before.value_or(*together)};
+    if (before && !combine(pair)) return refuse();
+    if (publish(together)) {
+      w.diag.strips_read = static_cast<int>(n);
+      return;
+    }
   }
   if (confirm) return refuse();
-  // Else with the last frames' own depths, newest first, captured at most frames_together_s before: the
-  // rut along that stretch of travel, where it has not changed by more than the readings' noise (which
-  // the chi-square test asks). Not a frame a moment after water (guards_asked returned above).
-  const double window_s = config_.strip.frames_together_s;
-  for (std::size_t k = 0; k < workspace.recent_count && window_s > 0.0; ++k) {
-    const auto& r =
-        workspace.recent[(workspace.recent_next + RutWorkspace::kRecentDepths - 1 - k) % RutWorkspace::kRecentDepths];
-    if (within_s(r.t_ns, w.frame.t_ns, window_s) && n < depths.size()) depths[n++] = {r.depth_mm, r.u_mm};
-  }
-  if (n > strips && publish(n)) {
+  // Else with the last frames' own depths: the rut along that stretch of travel, where it has not
+  // changed by more than the readings' noise (which the chi-square test asks).
+  n += recent;
+  if (n > strips && publish(combine(std::span(depths).first(n)))) {
     w.diag.strips_read = static_cast<int>(strips);
     w.diag.frames_read = static_cast<int>(n - strips);
   }

@@ -34,8 +34,9 @@ TEST(GapFill, WiderWindowsPublishMoreSnowFramesAndNoneWrong) {
   std::printf("OK of %d frames: %d with the gaps read again, %d without\n", with.frames, with.ok, without.ok);
   EXPECT_EQ(with.ok_beyond_1mm, 0);
   EXPECT_EQ(without.ok_beyond_1mm, 0);
-  // Measured: 14 of 16 with, 6 without.
-  EXPECT_GE(with.ok, without.ok + 4);
+  // Measured: 15 of 16 with, 12 without (6 without before the guard strips were levelled along travel:
+  // their readings, biased by the rig's pitch, then disagreed with the strip's and left it UNCERTAIN).
+  EXPECT_GE(with.ok, without.ok + 2);
 }
 
 // The option's bounds: wider than the 5 px windows it reads again, up to the DIC's 15 px.

@@ -316,6 +316,22 @@ TEST(GuardStrips, FramesOfADeeperRutAreNotReadWithThoseBefore) {
   std::printf("read with the last frames: %d\n", read[0]);
 }
 
+// Snow under gain in a narrow view (the scene matrix's clean-gain-snow-38: piles reaching the image's
+// edges, little ground beside them). On frame 5 the strip's depth (1.6 mm deep of the truth, u 1.77) and
+// one guard's (3.1 mm deep, u 0.70) agree as their uncertainties say. Their mean (u 0.65, over the
+// limit) disagrees with the frame before (chi-square 4.85 of one degree of freedom): refused. Read with
+// that frame all the same, the three pass the chi-square test at 95 % (5.5 of two degrees) and their mean
+// would be published 2.3 mm off at u 0.58, but they scatter more than their uncertainties say and
+// Birge's ratio widens its u beyond the limit. Either rule refuses the frame (without both it was
+// published 2.3 mm off). Every depth published OK is within 1 mm of the truth (measure_both).
+TEST(GuardStrips, AMeanOffTheLastFramesOrScatteredBeyondItsUncertaintiesIsRefused) {
+  read_together(
+      "--texture snow --depth 36.1 --width 146 --bottom-width 76 --pile-left 17.4 --pile-right 12.4 --offset -1 "
+      "--baseline 53 --height 330 --hfov 75 --roll -0.3 --pitch 8.3 --noise 2.07 --speed 1746 "
+      "--right-response 1.010 --seed 2038 --wander 35 --wander-wavelength 2120 --exposure 0.369 --gain 1.91",
+      8);
+}
+
 // Snow under auto exposure (the scene matrix's clean-auto-snow-10): on frames 4 and 5 one guard strip
 // finds no usable depth (its uncertainty over three times the limit), and the strip's UNCERTAIN depth is
 // read with the other guard alone (chi-square of one degree of freedom). Every depth published OK is

@@ -15,8 +15,18 @@ struct CrossSection {
   double dx_mm = 1.0;        // bin width
   std::vector<double> z_mm;  // robust mean Z of each bin; NaN where the bin had no valid point
   std::vector<int> count;    // valid points averaged into each bin
+  // Along travel: the strip's rows see the ground at Y = (row - cy) Z / f, so a point of the rut's bottom
+  // lies further along Y than the ground on the same row, by (row - cy) depth / f. Where the ground slopes
+  // along Y (the rig pitched against it), the bottom is read that much deeper or shallower: heights
+  // above or below the ground on this section are read (1 - along_slope * ray_elevation) times too
+  // large (about 1 % per degree of pitch a quarter of the image off the principal row; nothing where
+  // the strip straddles it). extract_rut takes it out of its figures.
+  double along_slope = 0.0;    // dZ/dY of the surface seen (median over bins); 0 where unknown
+  double ray_elevation = 0.0;  // mean Y / Z of the points: the strip's mean row, (row - cy) / f
   // Storage reused by reduce_to_cross_section between frames; contents unspecified.
   std::vector<float> scratch_z;
+  std::vector<float> scratch_y;
+  std::vector<double> scratch_slope;
   std::vector<int> scratch_offset;
 };
 
