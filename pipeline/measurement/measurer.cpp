@@ -282,8 +282,7 @@ void StereoMeasurer::read_strips_together(FrameWork& w, const RutWorkspace& work
     // weighted mean. It is the strips' mean that is published.
     const auto before =
         recent == 1 ? std::optional{depths[strips]} : combine(std::span(depths).subspan(strips, recent));
-    const std::array<Reading, 2> pair = {*together, before.value_or(*together)};
-    if (before && !combine(pair)) return refuse();
+    if (before && !combine(std::array{*together, *before})) return refuse();
     if (publish(together)) {
       w.diag.strips_read = static_cast<int>(n);
       return;

@@ -297,10 +297,13 @@ class StereoMeasurer {
   // auto gain), away from water, measured again on the guard strips: where the strip's depth and those of
   // one or both guards, each within 3 times RutConfig::max_depth_uncertainty_mm, agree as their
   // uncertainties say (chi-square under its 95th percentile: 3.84 for one degree of freedom, 5.99 for
-  // two), and their combined uncertainty is within it, their weighted mean
-  // (1/u^2) is published OK with that uncertainty. The section and geometry stay the strip's. The rut is
-  // one along the half of the image they span; strips that disagree leave it Uncertain. A depth Ok only by
-  // read_low_texture is measured so too, and refused Uncertain where both guards do not confirm it.
+  // two), their weighted mean (1/u^2) agrees so with the last frames' own depths (RutWorkspace::recent,
+  // within StripConfig::frames_together_s, where those agree among themselves), and their combined
+  // uncertainty, widened by Birge's ratio where chi-square exceeds its degrees of freedom, is within it,
+  // the mean is published OK with that uncertainty. The section and geometry stay the strip's. The rut
+  // is one along the half of the image they span; strips that disagree leave it Uncertain. A depth Ok
+  // only by read_low_texture is measured so too, and refused Uncertain where both guards do not confirm
+  // it. Else an Uncertain depth is read so with the last frames' depths as well (diag.frames_read).
   void read_strips_together(FrameWork& w, const RutWorkspace& workspace) const;
   // Whether one of `depths` (depth, standard uncertainty, mm: the strip's and its guards' OK depths)
   // lies at the level of a lid that this strip or a guard found within memory_s and another of them
