@@ -338,7 +338,8 @@ int deepest_bin_clear_of_gaps(const RutWorkspace& ws, const Opening& o, int k, i
 // how much deeper than `depth` the profile could reach unseen. Walking into the gap from each edge, the
 // profile may go on down at that edge's smoothed slope. When both edges descend into the gap, the
 // deepest profile they allow is the V of their tangents, which meet inside it at depth
-// (r_l d_r + r_r d_l + r_l r_r w) / (r_l + r_r) (edge depths d, descent rates r > 0, gap width w). When
+// (r_l d_r + r_r d_l + r_l r_r w) / (r_l + r_r) (edge depths d, descent rates r > 0, gap width w), or
+// beyond it, where one tangent passes above the other edge: then the deeper edge bounds the gap. When
 // one edge does not descend (a hook of the shore, a level edge), nothing but the gap's width bounds the
 // other's descent: it is taken down for half the width, as for a symmetric V. A gap between rising or
 // level edges adds nothing beyond its deeper edge; a gap between walls still falling (a bottom not seen:
@@ -368,8 +369,11 @@ double unseen_excess(const std::vector<double>& h_fit, const std::vector<double>
       const double dl = -h_fit[last], dr = -h_fit[i];
       double reach = std::max(dl + 0.5 * width * rl, dr + 0.5 * width * rr);
       if (rl > 0.0 && rr > 0.0) {
-        const double x = (dr - dl + rr * width) / (rl + rr);  // where the tangents meet, from the left edge
-        if (x >= 0.0 && x <= width) reach = dl + rl * x;
+        // Where the tangents meet, from the left edge. Beyond the gap, one wall's tangent reaches the
+        // other edge's column still above that edge: it cannot descend below it inside the gap, and
+        // the deeper edge bounds what the gap holds (a steep wall's upper part lost beyond a bottom).
+        const double x = (dr - dl + rr * width) / (rl + rr);
+        reach = x >= 0.0 && x <= width ? dl + rl * x : std::max(dl, dr);
       }
       worst = std::max(worst, reach - depth);
     }

@@ -528,6 +528,45 @@ void add_correlated_noise(CrossSection& c, double sigma, int span, unsigned seed
   }
 }
 
+// A deep, narrow rut (65 mm, 164 mm wide, 55 mm of flat bottom: walls steeper than 50 deg) whose far
+// wall DIC lost from the bottom's middle to near the top (a dark, foreshortened wall; a rendered mud rut
+// under dim auto exposure lost exactly this and was flagged Water), under noise correlated over 8 bins.
+// The far wall's tangent reaches the near edge's column above the bottom: the wall cannot go below the
+// bottom inside the gap, which hides nothing, on every noise draw (where the bottom's noisy slopes
+// descend a little into the gap, as on 16 of these 40 draws, the tangents meet beyond the gap; taken
+// down half the gap at that slope instead, those 16 hid 1.0-8.0 mm and were refused). A pool 12 mm deep in
+// the same rut, its walls descending into the water on both sides, still hides more than the frame
+// checks' 1 mm on every draw.
+TEST(ExtractRut, ASteepWallLostBeyondALevelBottomHidesNothing) {
+  RutShape s;
+  s.depth = 65.0;
+  s.top = 164.0;
+  s.bottom = 55.0;
+  const View v;
+  RutWorkspace ws;
+  int dry = 0, pools = 0;
+  for (unsigned seed = 1; seed <= 40; ++seed) {
+    CrossSection c = make_section(s, v, kX0, kBins, 1.0, 0.05, seed);
+    add_correlated_noise(c, 0.25, 8, seed + 100);
+    CrossSection pool = c;
+    for (int x = 10; x < 75; ++x) c.z_mm[static_cast<std::size_t>(x - int(kX0))] = kNaN;
+    const RutMeasurement m = extract_rut(c, RutConfig{}, ws);
+    EXPECT_EQ(m.status, RutStatus::Ok) << "seed " << seed << ": " << to_string(m.status);
+    EXPECT_NEAR(m.depth_mm, s.depth, 0.6) << "seed " << seed;
+    EXPECT_LT(ws.geometry.unseen_depth_mm, 1.0) << "seed " << seed;
+    dry += m.status == RutStatus::Ok && ws.geometry.unseen_depth_mm < 1.0;
+    for (int i = 0; i < kBins; ++i) {
+      if (test::terrain_height(s, kX0 + i) < -(s.depth - 12.0)) pool.z_mm[static_cast<std::size_t>(i)] = kNaN;
+    }
+    const RutMeasurement p = extract_rut(pool, RutConfig{}, ws);
+    EXPECT_GT(ws.geometry.unseen_depth_mm, 1.0) << "seed " << seed;
+    EXPECT_GE(p.depth_mm + ws.geometry.unseen_depth_mm, s.depth) << "seed " << seed;
+    pools += ws.geometry.unseen_depth_mm > 1.0;
+  }
+  EXPECT_EQ(dry, 40);
+  EXPECT_EQ(pools, 40);
+}
+
 // The narrowest rig of the product (80 mm baseline at 300 mm, 640 px, 3 deg roll) sees a 200 mm rut
 // with 50 mm wide, 12 mm piles and only 20-40 mm of undisturbed ground beyond each pile, under noise
 // correlated over about 10 bins (low-texture snow). The pile walk must stop at the pile's foot, not run

@@ -117,8 +117,9 @@ void reduce_to_cross_section(const cv::Mat& xyz, const RutConfig& params, CrossS
 //   - the coverage across the rut: over a gap without valid bins inside the opening the bottom is not
 //     seen; the profile could continue down with the slopes at the gap's edges (the steepest within
 //     half a fit window of each) until the two meet (a V; half the gap's width where only one edge
-//     descends; RutGeometry::unseen_depth_mm), and that extra depth (taken as uniformly
-//     distributed, / sqrt(3)) counts where it would exceed the measured depth;
+//     descends; the deeper edge where they meet beyond the gap; RutGeometry::unseen_depth_mm), and that
+//     extra depth (taken as uniformly distributed, / sqrt(3)) counts where it would exceed the measured
+//     depth;
 //   - the selection at a gap's edge: a deepest point within half a fit window of a gap is read
 //     again at the deepest bin clear of gaps by as much, and half the excess of the first reading
 //     over the second counts (two hypotheses; bins beside what the matcher lost read the surface
