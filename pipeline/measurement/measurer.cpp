@@ -52,9 +52,9 @@ StripRoi measured_strip(const StereoCalibration& calibration, const MeasurerConf
   if (config.strip.rows > 0) strip = StripRoi{(height - config.strip.rows) / 2, config.strip.rows};
   if (config.strip.first_row) strip.row0 = *config.strip.first_row;
   if (strip.row0 < 0 || strip.rows <= 0 || strip.row0 + strip.rows > height)
-    throw std::invalid_argument("strip rows " + std::to_string(strip.row0) + ".." +
-                                std::to_string(strip.row0 + strip.rows) + " outside the image height " +
-                                std::to_string(height));
+    throw std::invalid_argument("measurement.strip first_row/rows (--strip-first-row, --strip-rows): rows " +
+                                std::to_string(strip.row0) + ".." + std::to_string(strip.row0 + strip.rows) +
+                                " lie outside the calibration's image height " + std::to_string(height));
   return strip;
 }
 
