@@ -49,5 +49,21 @@ TEST(GapFill, WiderWindowsPublishMoreSnowFramesAndNoneWrong) {
   EXPECT_GE(with.ok, without.ok + 2);
 }
 
+// The option's bounds: wider than the 5 px windows it reads again, up to the DIC's 15 px.
+TEST(GapFill, OptionOutOfRangeIsRefusedByName) {
+  const test::TempDir tmp;
+  const std::string rec = (tmp.path() / "rec").string();
+  ASSERT_EQ(test::run_rutd("synth " + rec + " --frames 1"), 0);
+  const std::string err = (tmp.path() / "err.txt").string();
+  for (const char* bad : {"4", "5", "16"}) {
+    const std::string out = (tmp.path() / (std::string("m") + bad + ".csv")).string();
+    EXPECT_NE(test::run_rutd("replay " + rec + " --out " + out + " --gap-fill-window " + bad, err), 0) << bad;
+    EXPECT_NE(test::read_text(err).find("--gap-fill-window"), std::string::npos) << test::read_text(err);
+  }
+  EXPECT_EQ(
+      test::run_rutd("replay " + rec + " --out " + (tmp.path() / "m6.csv").string() + " --gap-fill-window 6", err), 0)
+      << test::read_text(err);
+}
+
 }  // namespace
 }  // namespace rutd
