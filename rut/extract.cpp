@@ -367,13 +367,15 @@ double unseen_excess(const std::vector<double>& h_fit, const std::vector<double>
       const double rl = descent(last, +1);
       const double rr = descent(i, -1);
       const double dl = -h_fit[last], dr = -h_fit[i];
-      double reach = std::max(dl + 0.5 * width * rl, dr + 0.5 * width * rr);
+      double reach;
       if (rl > 0.0 && rr > 0.0) {
         // Where the tangents meet, from the left edge. Beyond the gap, one wall's tangent reaches the
         // other edge's column still above that edge: it cannot descend below it inside the gap, and
         // the deeper edge bounds what the gap holds (a steep wall's upper part lost beyond a bottom).
         const double x = (dr - dl + rr * width) / (rl + rr);
         reach = x >= 0.0 && x <= width ? dl + rl * x : std::max(dl, dr);
+      } else {
+        reach = std::max(dl + 0.5 * width * rl, dr + 0.5 * width * rr);  // one edge level, or both
       }
       worst = std::max(worst, reach - depth);
     }
