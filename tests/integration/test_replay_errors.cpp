@@ -106,7 +106,11 @@ TEST_F(ReplayErrors, OldStripOptionIsRefusedNamingItsReplacement) {
   EXPECT_EQ(test::run_rutd("replay " + rec_ + " --out " + csv() + " --strip-rows 40 --strip-first-row 200", err), 0)
       << test::read_text(err);
   EXPECT_EQ(read_measurement_csv(csv()).rows.size(), 4u);
-  // A strip below the images (480 rows) is refused naming the option and the setting it stands for.
+}
+
+// A strip below the images (480 rows) is refused naming the option and the setting it stands for.
+TEST_F(ReplayErrors, StripBeyondTheImagesIsRefusedNamingItsSetting) {
+  const std::string err = (tmp_.path() / "err.txt").string();
   EXPECT_NE(test::run_rutd("replay " + rec_ + " --out " + csv() + " --strip-first-row 900", err), 0);
   EXPECT_NE(test::read_text(err).find("(--strip-first-row, --strip-rows): rows 900..948 lie outside the "
                                       "calibration's image height 480"),
