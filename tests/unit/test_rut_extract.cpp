@@ -26,6 +26,14 @@ RutMeasurement measure(const CrossSection& c, const RutConfig& params = {}) {
   return extract_rut(c, params, ws);
 }
 
+// Standing water `water_mm` deep over the bottom of s in c (a section of kBins bins from kX0, no roll):
+// its surface has no texture, so every bin below it is NaN.
+void flood(CrossSection& c, const RutShape& s, double water_mm) {
+  for (int i = 0; i < kBins; ++i) {
+    if (test::terrain_height(s, kX0 + i) < -(s.depth - water_mm)) c.z_mm[static_cast<std::size_t>(i)] = kNaN;
+  }
+}
+
 // Noise-free tolerances: the only errors left are the method's (fit windows, 1 mm bins).
 void expect_matches(const RutMeasurement& m, const RutShape& s, const View& v) {
   ASSERT_EQ(m.status, RutStatus::Ok) << to_string(m.status);
@@ -182,10 +190,7 @@ TEST(ExtractRut, BottomUnderWaterIsUncertain) {
   s.depth = 45.0;
   const View v;
   CrossSection c = make_section(s, v, kX0, kBins, 1.0, 0.2, 5);
-  const double water_surface = -(s.depth - 12.0);
-  for (int i = 0; i < kBins; ++i) {
-    if (test::terrain_height(s, kX0 + i) < water_surface) c.z_mm[i] = kNaN;
-  }
+  flood(c, s, 12.0);
   const RutMeasurement m = measure(c);
   EXPECT_EQ(m.status, RutStatus::Uncertain) << to_string(m.status);
   EXPECT_NE(m.conditions & kConditionUncertain, 0u);
@@ -209,9 +214,7 @@ TEST(ExtractRut, HoleInALevelBottomHidesNothing) {
   EXPECT_LT(ws.geometry.unseen_depth_mm, 1.0);
 
   CrossSection pool = make_section(s, v, kX0, kBins, 1.0, 0.2, 6);
-  for (int i = 0; i < kBins; ++i) {
-    if (test::terrain_height(s, kX0 + i) < -(s.depth - 12.0)) pool.z_mm[i] = kNaN;
-  }
+  flood(pool, s, 12.0);
   const RutMeasurement p = extract_rut(pool, RutConfig{}, ws);
   EXPECT_GE(p.depth_mm + ws.geometry.unseen_depth_mm, s.depth);  // the hidden bottom within reach
   EXPECT_GT(ws.geometry.unseen_depth_mm, 1.0);
@@ -549,15 +552,13 @@ TEST(ExtractRut, ASteepWallLostBeyondALevelBottomHidesNothing) {
     CrossSection c = make_section(s, v, kX0, kBins, 1.0, 0.05, seed);
     add_correlated_noise(c, 0.25, 8, seed + 100);
     CrossSection pool = c;
-    for (int x = 10; x < 75; ++x) c.z_mm[static_cast<std::size_t>(x - int(kX0))] = kNaN;
+    blank(c, 10.0, 75.0, false);
     const RutMeasurement m = extract_rut(c, RutConfig{}, ws);
     EXPECT_EQ(m.status, RutStatus::Ok) << "seed " << seed << ": " << to_string(m.status);
     EXPECT_NEAR(m.depth_mm, s.depth, 0.6) << "seed " << seed;
     EXPECT_LT(ws.geometry.unseen_depth_mm, 1.0) << "seed " << seed;
     dry += m.status == RutStatus::Ok && ws.geometry.unseen_depth_mm < 1.0;
-    for (int i = 0; i < kBins; ++i) {
-      if (test::terrain_height(s, kX0 + i) < -(s.depth - 12.0)) pool.z_mm[static_cast<std::size_t>(i)] = kNaN;
-    }
+    flood(pool, s, 12.0);
     const RutMeasurement p = extract_rut(pool, RutConfig{}, ws);
     EXPECT_GT(ws.geometry.unseen_depth_mm, 1.0) << "seed " << seed;
     EXPECT_GE(p.depth_mm + ws.geometry.unseen_depth_mm, s.depth) << "seed " << seed;
