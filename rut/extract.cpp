@@ -565,10 +565,15 @@ RutMeasurement extract_rut(const CrossSection& section, const RutConfig& params,
   // A flat bottom is the common case: only a curved one (curvature > 2 standard errors) is taken at
   // its vertex. Stricter would bias round bottoms low (flat mean of a curved top), laxer would bias
   // flat bottoms high (the vertex of noise); 2 balances both under 0.1 mm at 0.5 mm noise.
-  const auto depth_at = [&](int bin) {
-    return detail::refine_max(ws.a, ws.b, bin, delta, 2, o.left_bin, o.right_bin, 2.0 * inflation);
+  const auto depth_at = [&](int bin, double* overshoot = nullptr) {
+    return detail::refine_max(ws.a, ws.b, bin, delta, 2, o.left_bin, o.right_bin, 2.0 * inflation, overshoot);
   };
-  out.depth_mm = depth_at(k);
+  // A parabola that peaks above every sample of the deepest region fits no top there (a wall's foot on
+  // one side of a gap, a bottom seen in fragments on the other): the depth is its highest sample, and
+  // half of the overshoot counts as a standard uncertainty (two hypotheses, as the selection's below).
+  double overshoot = 0.0;
+  out.depth_mm = depth_at(k, &overshoot);
+  const double u_fit = 0.5 * overshoot;
   // A gap within the sliding fit's half window of k leans the smoothed value there on the gap's edge: the
   // depth read at the deepest bin clear of gaps is the other hypothesis, and half of how much deeper the
   // first reading is counts as a standard uncertainty (a two-point distribution's). Shallower counts
@@ -609,7 +614,8 @@ RutMeasurement extract_rut(const CrossSection& section, const RutConfig& params,
   }
   geo.unseen_bound_mm = bound;
   const double u_gap = bound / std::sqrt(3.0);
-  out.depth_uncertainty_mm = std::sqrt(wander * wander + u_line * u_line + u_gap * u_gap + u_select * u_select);
+  out.depth_uncertainty_mm =
+      std::sqrt(wander * wander + u_line * u_line + u_gap * u_gap + u_select * u_select + u_fit * u_fit);
   // Heights read off the principal row of a rig pitched against the ground (CrossSection::along_slope).
   const double level = 1.0 - section.along_slope * section.ray_elevation;
   out.depth_mm *= level;

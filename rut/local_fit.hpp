@@ -40,10 +40,12 @@ bool fit_line_robust(const double* x, const double* z, int n, std::vector<double
 // largest sample. The region is the run of bins around k whose smoothed value lies within `delta` of
 // h_fit[k] (a bin without a smoothed value: its raw sample within 2 delta; gaps do not end the run;
 // at least +-min_half bins, within [lo, hi]); a parabola is fitted to the raw samples there.
-// A concave parabola whose curvature exceeds min_t times its standard error gives its vertex (clamped
-// to the samples' extent within the region); otherwise the top is flat within the noise and the mean of the region is
-// the estimate. min_t = 0 trusts any concave fit (tops known to be rounded).
+// A concave parabola whose curvature exceeds min_t times its standard error gives its vertex, clamped
+// to the samples' extent within the region and never above the highest sample; otherwise the top is
+// flat within the noise and the mean of the region is the estimate. min_t = 0 trusts any concave fit
+// (tops known to be rounded). overshoot, where given, gets how far the vertex lay above the highest
+// sample (0 where it did not, or where no vertex was taken).
 double refine_max(const std::vector<double>& h_raw, const std::vector<double>& h_fit, int k, double delta, int min_half,
-                  int lo, int hi, double min_t);
+                  int lo, int hi, double min_t, double* overshoot = nullptr);
 
 }  // namespace rutd::detail

@@ -568,6 +568,37 @@ TEST(ExtractRut, ASteepWallLostBeyondALevelBottomHidesNothing) {
   EXPECT_EQ(pools, 40);
 }
 
+// A steep 70 mm snow rut seen in fragments (a rendered scene's section): the near wall down to 17 mm,
+// 13 bins of its foot (53-68 mm deep) past a 13 mm gap, 13 bins of the bottom past a 52 mm one, and
+// the far wall only from its top. The fragments are too short for the sliding fit, so the deepest
+// smoothed bin is the near wall's last, and its deepest region runs on across the gaps to the raw
+// samples of the foot and the bottom: a parabola through them peaked 21 mm below the deepest sample, and
+// was published OK at 91 mm. The depth never lies beyond the samples, and is published only right.
+TEST(ExtractRut, AParabolaAcrossFragmentsNeverPeaksBelowTheSamples) {
+  RutShape s;
+  s.depth = 70.0;
+  s.top = 160.0;
+  s.bottom = 60.0;
+  const View v;
+  int checked = 0;
+  for (unsigned seed = 1; seed <= 20; ++seed) {
+    CrossSection c = make_section(s, v, kX0, kBins, 1.0, 0.1, seed);
+    add_correlated_noise(c, 0.4, 8, seed + 500);
+    blank(c, -53.0, -40.0, false);
+    blank(c, -27.0, 25.0, false);
+    blank(c, 38.0, 90.0, false);
+    double deepest_seen = 0.0;
+    for (double z : c.z_mm)
+      if (!std::isnan(z)) deepest_seen = std::max(deepest_seen, z - v.ground_z);
+    const RutMeasurement m = measure(c);
+    ++checked;
+    EXPECT_LE(m.depth_mm, deepest_seen + 0.3) << "seed " << seed;
+    EXPECT_TRUE(m.status != RutStatus::Ok || std::abs(m.depth_mm - s.depth) <= 1.0)
+        << "seed " << seed << ": " << m.depth_mm;
+  }
+  EXPECT_EQ(checked, 20);
+}
+
 // The narrowest rig of the product (80 mm baseline at 300 mm, 640 px, 3 deg roll) sees a 200 mm rut
 // with 50 mm wide, 12 mm piles and only 20-40 mm of undisturbed ground beyond each pile, under noise
 // correlated over about 10 bins (low-texture snow). The pile walk must stop at the pile's foot, not run
