@@ -124,6 +124,8 @@ void reduce_to_cross_section(const cv::Mat& xyz, const RutConfig& params, CrossS
 //     again at the deepest bin clear of gaps by as much, and half the excess of the first reading
 //     over the second counts (two hypotheses; bins beside what the matcher lost read the surface
 //     off, and the deepest of them is picked);
+//   - the fit of the deepest region: a parabola whose vertex lies above every sample it was fitted to
+//     (fragments across gaps) gives the highest sample as the depth, and half the overshoot counts;
 // and quality = 1 - u / (2 max_depth_uncertainty_mm), clamped to 0..1 (0 unless the status is Ok,
 // Uncertain or Vegetation). A rough profile is Vegetation and a depth with u above the limit Uncertain
 // (both with the depth computed but not Ok).
