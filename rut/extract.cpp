@@ -616,10 +616,13 @@ RutMeasurement extract_rut(const CrossSection& section, const RutConfig& params,
   const double u_gap = bound / std::sqrt(3.0);
   out.depth_uncertainty_mm =
       std::sqrt(wander * wander + u_line * u_line + u_gap * u_gap + u_select * u_select + u_fit * u_fit);
+  // What the shape gives, not the noise: the same in the guard strips and the next frames over this rut.
+  out.depth_systematic_mm = std::sqrt(u_gap * u_gap + u_select * u_select + u_fit * u_fit);
   // Heights read off the principal row of a rig pitched against the ground (CrossSection::along_slope).
   const double level = 1.0 - section.along_slope * section.ray_elevation;
   out.depth_mm *= level;
   out.depth_uncertainty_mm *= level;
+  out.depth_systematic_mm *= level;
   out.area_mm2 *= level;
   out.left_pile_mm *= level;
   out.right_pile_mm *= level;

@@ -17,6 +17,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "engines/engine_factory.hpp"
+#include "measurement/depth_readings.hpp"
 
 namespace rutd {
 
@@ -206,9 +207,9 @@ void StereoMeasurer::read_strips_together(FrameWork& w, const RutWorkspace& work
   if (!std::isfinite(m.depth_uncertainty_mm) || !(m.depth_uncertainty_mm > 0.0)) return refuse();
   // The strip's and up to two guards' depths (kStrips), then up to kRecentDepths of the last frames'.
   constexpr std::size_t kStrips = 3;
-  std::array<std::pair<double, double>, kStrips + RutWorkspace::kRecentDepths> depths;
+  std::array<DepthReading, kStrips + RutWorkspace::kRecentDepths> depths;
   std::size_t n = 0;
-  depths[n++] = {m.depth_mm, m.depth_uncertainty_mm};
+  depths[n++] = {m.depth_mm, m.depth_uncertainty_mm, m.depth_systematic_mm};
   {
     const std::lock_guard lock(guards_->mutex);
     for (StereoMeasurer& guard : guards_->strips) {
@@ -217,40 +218,23 @@ void StereoMeasurer::read_strips_together(FrameWork& w, const RutWorkspace& work
       const bool clean = g.conditions == 0 || g.conditions == kConditionUncertain;
       if ((g.status == RutStatus::Ok || g.status == RutStatus::Uncertain) && clean && usable(g.depth_uncertainty_mm) &&
           n < kStrips)
-        depths[n++] = {g.depth_mm, g.depth_uncertainty_mm};
+        depths[n++] = {g.depth_mm, g.depth_uncertainty_mm, g.depth_systematic_mm};
     }
   }
   if (!usable(m.depth_uncertainty_mm)) return refuse();
-  // The readings agree as their uncertainties say (chi-square of their number less one degrees of
-  // freedom under its 95th percentile): their weighted mean and its uncertainty, else nullopt.
-  using Reading = std::pair<double, double>;  // depth, u (mm)
-  const auto combine = [](std::span<const Reading> readings) -> std::optional<Reading> {
-    constexpr std::array<double, 7> kChi2_95 = {0.0, 3.84, 5.99, 7.81, 9.49, 11.07, 12.59};
-    const std::size_t k = readings.size();
-    if (k < 2 || k > kChi2_95.size()) return std::nullopt;
-    double sw = 0.0, swd = 0.0;
-    for (const Reading& r : readings) {
-      const double wt = 1.0 / (r.second * r.second);
-      sw += wt;
-      swd += wt * r.first;
-    }
-    const double mean = swd / sw;
-    double chi2 = 0.0;
-    for (const Reading& r : readings) chi2 += std::pow((r.first - mean) / r.second, 2);
-    if (!(chi2 <= kChi2_95[k - 1])) return std::nullopt;
-    // Readings that scatter more than their uncertainties say (chi2 over its degrees of freedom above 1:
-    // Birge's ratio) widen the mean's by that much: one reading's u too small (a guard with little ground
-    // beside the rut, measured 3.1 mm off at u 0.70) must not pull the mean and shrink its u at once.
-    return Reading{mean, std::sqrt(std::max(1.0, chi2 / double(k - 1)) / sw)};
-  };
-  // Published where together they are precise enough.
-  const auto publish = [&](const std::optional<Reading>& together) {
-    if (!together || !(together->second <= limit)) return false;
-    m.depth_mm = together->first;
-    m.depth_uncertainty_mm = together->second;
+  // Readings that agree are read as their weighted mean (combine_depth_readings): only the noise averages
+  // out, the shape's parts (a gap beside a wall lost in shadow, the selection at its edge) are the same in
+  // every strip and frame over the rut. Readings that scatter beyond their uncertainties widen the mean's:
+  // one reading's u too small (a guard with little ground beside the rut, measured 3.1 mm off at u 0.70)
+  // must not pull the mean and shrink its u at once. Published where together they are precise enough.
+  const auto publish = [&](const std::optional<DepthReading>& together) {
+    if (!together || !(together->u_mm <= limit)) return false;
+    m.depth_mm = together->depth_mm;
+    m.depth_uncertainty_mm = together->u_mm;
+    m.depth_systematic_mm = together->systematic_mm;
     m.status = RutStatus::Ok;
     m.conditions = 0;
-    m.quality = depth_quality(together->second, limit);
+    m.quality = depth_quality(together->u_mm, limit);
     w.diag.strips_together = true;
     return true;
   };
@@ -264,7 +248,7 @@ void StereoMeasurer::read_strips_together(FrameWork& w, const RutWorkspace& work
       const auto& r =
           workspace.recent[(workspace.recent_next + RutWorkspace::kRecentDepths - 1 - k) % RutWorkspace::kRecentDepths];
       if (within_s(r.t_ns, w.frame.t_ns, window_s) && from + added < depths.size())
-        depths[from + added++] = {r.depth_mm, r.u_mm};
+        depths[from + added++] = {r.depth_mm, r.u_mm, r.systematic_mm};
     }
     return added;
   };
@@ -273,7 +257,7 @@ void StereoMeasurer::read_strips_together(FrameWork& w, const RutWorkspace& work
   // need not cost the frame).
   const std::size_t strips = n;
   const std::size_t recent = add_recent(strips);
-  const auto together = n >= (confirm ? 3u : 2u) ? combine(std::span(depths).first(n)) : std::nullopt;
+  const auto together = n >= (confirm ? 3u : 2u) ? combine_depth_readings(std::span(depths).first(n)) : std::nullopt;
   if (together) {
     // The strips read one frame, and may share its error where the noise estimate fails (measured in
     // snow: a strip and a guard both 1.2-1.4 mm deep at u 0.45-0.53, agreeing; a guard 1.3 mm off at
@@ -281,8 +265,8 @@ void StereoMeasurer::read_strips_together(FrameWork& w, const RutWorkspace& work
     // these agree among themselves (another stretch of the same rut, other noise), against their
     // weighted mean. It is the strips' mean that is published.
     const auto before =
-        recent == 1 ? std::optional{depths[strips]} : combine(std::span(depths).subspan(strips, recent));
-    if (before && !combine(std::array{*together, *before})) return refuse();
+        recent == 1 ? std::optional{depths[strips]} : combine_depth_readings(std::span(depths).subspan(strips, recent));
+    if (before && !combine_depth_readings(std::array{*together, *before})) return refuse();
     if (publish(together)) {
       w.diag.strips_read = static_cast<int>(n);
       return;
@@ -292,7 +276,7 @@ void StereoMeasurer::read_strips_together(FrameWork& w, const RutWorkspace& work
   // Else with the last frames' own depths: the rut along that stretch of travel, where it has not
   // changed by more than the readings' noise (which the chi-square test asks).
   n += recent;
-  if (n > strips && publish(combine(std::span(depths).first(n)))) {
+  if (n > strips && publish(combine_depth_readings(std::span(depths).first(n)))) {
     w.diag.strips_read = static_cast<int>(strips);
     w.diag.frames_read = static_cast<int>(n - strips);
   }
@@ -955,7 +939,7 @@ void StereoMeasurer::remember_frame(const FrameWork& w, RutWorkspace& workspace)
   const bool noisy = m.status == RutStatus::Uncertain && m.conditions == kConditionUncertain;
   if (w.diag.frames_read == 0 && not_overruled && (ok_alone || noisy) && std::isfinite(u) && u > 0.0 &&
       u <= 3.0 * limit) {
-    workspace.recent[workspace.recent_next] = {w.frame.t_ns, m.depth_mm, u};
+    workspace.recent[workspace.recent_next] = {w.frame.t_ns, m.depth_mm, u, m.depth_systematic_mm};
     workspace.recent_next = (workspace.recent_next + 1) % RutWorkspace::kRecentDepths;
     workspace.recent_count = std::min(workspace.recent_count + 1, RutWorkspace::kRecentDepths);
   }

@@ -78,6 +78,10 @@ struct RutMeasurement {
   double valid_fraction = 0.0;  // fraction of cross-section bins with valid points, 0..1
   // Estimated standard uncertainty of depth_mm (see rut/extract.hpp), mm; NaN when no depth was found.
   double depth_uncertainty_mm = std::numeric_limits<double>::quiet_NaN();
+  // The part of depth_uncertainty_mm (mm, at most it) that the rut's shape, not the stereo noise, gives:
+  // what gaps leave unseen, the selection at a gap's edge, the fit across fragments. Strips and frames over
+  // the same rut share it, so averaging them does not shrink it (StereoMeasurer::read_strips_together).
+  double depth_systematic_mm = 0.0;
   // Largest vertical offset of the right strip's features against the left's over the blocks measured,
   // px (near 0 for a calibration that fits); NaN when it could not be measured.
   double vertical_disparity_px = std::numeric_limits<double>::quiet_NaN();

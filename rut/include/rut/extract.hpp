@@ -88,7 +88,7 @@ struct RutWorkspace {
   // recent_next - 1.
   struct RecentDepth {
     std::int64_t t_ns = 0;
-    double depth_mm = 0.0, u_mm = 0.0;
+    double depth_mm = 0.0, u_mm = 0.0, systematic_mm = 0.0;  // RutMeasurement's depth and its uncertainties
   };
   static constexpr std::size_t kRecentDepths = 4;
   std::array<RecentDepth, kRecentDepths> recent{};
@@ -126,6 +126,7 @@ void reduce_to_cross_section(const cv::Mat& xyz, const RutConfig& params, CrossS
 //     off, and the deepest of them is picked);
 //   - the fit of the deepest region: a parabola whose vertex lies above every sample it was fitted to
 //     (fragments across gaps) gives the highest sample as the depth, and half the overshoot counts;
+// (the last three, the rut's shape's share, also make up depth_systematic_mm)
 // and quality = 1 - u / (2 max_depth_uncertainty_mm), clamped to 0..1 (0 unless the status is Ok,
 // Uncertain or Vegetation). A rough profile is Vegetation and a depth with u above the limit Uncertain
 // (both with the depth computed but not Ok).
