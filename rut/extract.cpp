@@ -336,18 +336,23 @@ int deepest_bin_clear_of_gaps(const RutWorkspace& ws, const Opening& o, int k, i
 
 // The coverage term of the uncertainty (see extract.hpp): for every gap of NaN bins inside the opening,
 // how much deeper than `depth` the profile could reach unseen. Walking into the gap from each edge, the
-// profile may go on down at that edge's smoothed slope. When both edges descend into the gap, the
-// deepest profile they allow is the V of their tangents, which meet inside it at depth
-// (r_l d_r + r_r d_l + r_l r_r w) / (r_l + r_r) (edge depths d, descent rates r > 0, gap width w), or
-// beyond it, where one tangent passes above the other edge: then the deeper edge bounds the gap. When
-// one edge does not descend (a hook of the shore, a level edge), nothing but the gap's width bounds the
-// other's descent: it is taken down for half the width, as for a symmetric V. A gap between rising or
-// level edges adds nothing beyond its deeper edge; a gap between walls still falling (a bottom not seen:
-// water, a patch DIC refused) adds the depth the walls would reach. An edge's descent rate is the
+// profile may go on down at that edge's smoothed slope. Where the two edges' tangents meet inside the
+// gap, the deepest profile they allow is their V, at depth (r_l d_r + r_r d_l + r_l r_r w) / (r_l + r_r)
+// (edge depths d, descent rates r >= 0, gap width w): a rut's profile below its shoulders is a bowl,
+// which lies above its tangents, and a level edge is one leg (a level bottom beside a wall lost from its
+// middle down hides nothing below the bottom). A gentler edge shallower than the bottom by more than
+// `bottom_band` (the deepest region's width, mm) may be a shoulder, a level lip or a wall's upper half,
+// whose slope steepens below it: unless it lies deeper than the steeper edge's face reaches in half the
+// gap, it takes that edge's rate, blended in over one more band so that the bound moves continuously
+// with the edges (a rut whose near wall and bottom are lost below a level lip reaches as deep as the far
+// wall's slope takes it, not the far edge's depth). Where the tangents meet beyond the gap, the
+// shallower edge's tangent passes above the deeper edge: the deeper edge bounds the gap where it is no
+// steeper than the other (a bottom beside a wall lost near its top) or lies on a bottom (below); else
+// each edge is taken down at its rate for half the width (a symmetric V). An edge's descent rate is the
 // steepest within `reach` bins of it: the last bins before a gap bend (a shore's edge matches at the
 // water's level, the fits there extrapolate), the wall above them does not. The largest excess, mm.
 double unseen_excess(const std::vector<double>& h_fit, const std::vector<double>& slope, double m, const Grid& g,
-                     const Opening& o, double depth, double norm, int reach_bins) {
+                     const Opening& o, double depth, double bottom_band, double norm, int reach_bins) {
   // Steepest descent below the line (mm per mm) walking in direction dir over bins [from, from + dir
   // reach_bins]; 0 if none descends.
   const auto descent = [&](int from, int dir) {
@@ -364,19 +369,36 @@ double unseen_excess(const std::vector<double>& h_fit, const std::vector<double>
     if (last >= 0 && i - last > 1) {
       const double width = (i - last) * g.dx;
       // Descent rates below the line walking into the gap from each side.
-      const double rl = descent(last, +1);
-      const double rr = descent(i, -1);
+      double rl = descent(last, +1);
+      double rr = descent(i, -1);
       const double dl = -h_fit[last], dr = -h_fit[i];
-      double reach;
-      if (rl > 0.0 && rr > 0.0) {
-        // Where the tangents meet, from the left edge. Beyond the gap, one wall's tangent reaches the
-        // other edge's column still above that edge: it cannot descend below it inside the gap, and
-        // the deeper edge bounds what the gap holds (a steep wall's upper part lost beyond a bottom).
-        const double x = (dr - dl + rr * width) / (rl + rr);
-        reach = x >= 0.0 && x <= width ? dl + rl * x : std::max(dl, dr);
-      } else {
-        reach = std::max(dl + 0.5 * width * rl, dr + 0.5 * width * rr);  // one edge level, or both
+      // Beyond the gap (below), the edges' own rates say which is the steeper, and the profile away
+      // from the gap whether the deeper edge lies on the bottom: two reaches away it is still at least
+      // half as deep and has risen less than half what the edge's descent rate gives (a one-sided fit
+      // at a bottom's edge curls down into the gap; a wall's face goes on rising at its slope).
+      const bool deeper_gentler = dl >= dr ? rl <= rr : rr <= rl;
+      const int deep_edge = dl >= dr ? last : i;
+      const int away = deep_edge + (dl >= dr ? -1 : +1) * 2 * reach_bins;
+      const double d_deep = std::max(dl, dr), r_deep = dl >= dr ? rl : rr;
+      const double d_away =
+          away >= 0 && away < int(h_fit.size()) ? -h_fit[away] : std::numeric_limits<double>::quiet_NaN();
+      const bool deeper_on_bottom = d_away >= 0.5 * d_deep && d_deep - d_away < 0.5 * r_deep * 2 * reach_bins * g.dx;
+      // A gentler edge above the bottom takes the steeper edge's rate (above), in full from two bands up.
+      double& gentle = rl < rr ? rl : rr;
+      const double steep = std::max(rl, rr);
+      const double d_gentle = rl < rr ? dl : dr, d_steep = rl < rr ? dr : dl;
+      if (steep > 0.0) {
+        const double shoulder = std::clamp((depth - d_gentle) / bottom_band - 1.0, 0.0, 1.0);
+        const double above = std::clamp(1.0 - (d_gentle - d_steep) / (0.5 * width * steep), 0.0, 1.0);
+        gentle += shoulder * above * (steep - gentle);
       }
+      // Where the tangents meet, from the left edge (NaN when both are level).
+      const double x = rl + rr > 0.0 ? (dr - dl + rr * width) / (rl + rr) : std::numeric_limits<double>::quiet_NaN();
+      // Beyond the gap: bounded by the deeper edge, or each edge half the width down (above).
+      const double reach = x >= 0.0 && x <= width ? dl + rl * x
+                           : deeper_gentler || deeper_on_bottom
+                               ? std::max(dl, dr)
+                               : std::max(dl + 0.5 * width * rl, dr + 0.5 * width * rr);
       worst = std::max(worst, reach - depth);
     }
     last = i;
@@ -391,7 +413,7 @@ double unseen_excess(const std::vector<double>& h_fit, const std::vector<double>
 // deepest of its bins there, plus tol; one it does not cover keeps the walls' bound. Returns the excess
 // over `depth`, mm (>= 0).
 double unseen_excess_filled(const std::vector<double>& h_fit, const std::vector<double>& slope, double m, const Grid& g,
-                            const Opening& o, double depth, double norm, int reach_bins,
+                            const Opening& o, double depth, double bottom_band, double norm, int reach_bins,
                             const std::vector<double>& h_fill, double tol) {
   double worst = 0.0;
   int last = -1;
@@ -415,7 +437,7 @@ double unseen_excess_filled(const std::vector<double>& h_fit, const std::vector<
         Opening gap = o;
         gap.left_bin = last;
         gap.right_bin = i;
-        worst = std::max(worst, unseen_excess(h_fit, slope, m, g, gap, depth, norm, reach_bins));
+        worst = std::max(worst, unseen_excess(h_fit, slope, m, g, gap, depth, bottom_band, norm, reach_bins));
       }
     }
     last = i;
@@ -603,13 +625,14 @@ RutMeasurement extract_rut(const CrossSection& section, const RutConfig& params,
   // correlated over a whole fit window gives (1 / sqrt(leverage); a noise-free section has no scale).
   const double u_line =
       line_error_at(ws.ground_x, ws.ground_z, line, p.grid.x(k), ws.c, std::min(inflation, 1.0 / std::sqrt(leverage)));
-  const double unseen = unseen_excess(ws.h_fit, ws.slope, line.m, p.grid, o, out.depth_mm, norm, p.half);
+  const double unseen = unseen_excess(ws.h_fit, ws.slope, line.m, p.grid, o, out.depth_mm, delta, norm, p.half);
   geo.unseen_depth_mm = unseen;
   double bound = unseen;
   if (gap_fill != nullptr && unseen > 0.0) {
     const double tol = fill_heights(section, *gap_fill, p, line, ws.h_fit, ws.a, ws.b, ws.h_fill, ws.c);
     if (std::isfinite(tol)) {
-      bound = unseen_excess_filled(ws.h_fit, ws.slope, line.m, p.grid, o, out.depth_mm, norm, p.half, ws.h_fill, tol);
+      bound = unseen_excess_filled(ws.h_fit, ws.slope, line.m, p.grid, o, out.depth_mm, delta, norm, p.half, ws.h_fill,
+                                   tol);
     }
   }
   geo.unseen_bound_mm = bound;

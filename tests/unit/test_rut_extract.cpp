@@ -568,6 +568,40 @@ TEST(ExtractRut, ASteepWallLostBeyondALevelBottomHidesNothing) {
   EXPECT_EQ(pools, 40);
 }
 
+// The mirror case of the one above: a 45 mm rut without a pile on one side, whose near wall, bottom and
+// the far wall's lower part DIC lost, from the near lip (or just below it, on the wall's upper half,
+// where it steepens downwards) to the far wall's middle. The lip's edge is level: its tangent says
+// nothing of the wall below it, and the far edge is no bottom. Not one of these may be published OK
+// with its depth (the far edge's, 8-36 mm) wrong. Measured on these 480 draws: bounding the gap by the
+// far edge's depth where the tangents met beyond it published 35, up to 35.9 mm off; the V of the lip's
+// gentle tangent and the far wall's, trusted wherever both descended, 2 (37 mm off).
+TEST(ExtractRut, AWallAndBottomLostBelowALevelLipAreNeverPublished) {
+  int checked = 0, published = 0;
+  for (int side : {-1, +1}) {
+    RutShape s;
+    s.depth = 45.0;
+    (side < 0 ? s.left_pile : s.right_pile) = 0.0;
+    for (double lip : {104.0, 100.0, 97.0, 94.0}) {
+      for (double far : {65.0, 75.0, 85.0}) {
+        for (unsigned seed = 1; seed <= 20; ++seed) {
+          CrossSection c = make_section(s, View{}, kX0, kBins, 1.0, 0.2, seed);
+          if (seed > 10) add_correlated_noise(c, 0.25, 8, seed + 300);
+          blank(c, side < 0 ? -lip : -far, side < 0 ? far : lip, false);
+          const RutMeasurement m = measure(c);
+          ++checked;
+          if (m.status == RutStatus::Ok) {
+            ++published;
+            EXPECT_NEAR(m.depth_mm, s.depth, 1.0)
+                << "side " << side << " lip " << lip << " far " << far << " seed " << seed;
+          }
+        }
+      }
+    }
+  }
+  EXPECT_EQ(checked, 480);
+  std::printf("%d of %d published OK\n", published, checked);
+}
+
 // A steep 70 mm snow rut seen in fragments (a rendered scene's section): the near wall down to 17 mm,
 // 13 bins of its foot (53-68 mm deep) past a 13 mm gap, 13 bins of the bottom past a 52 mm one, and
 // the far wall only from its top. The fragments are too short for the sliding fit, so the deepest
