@@ -305,7 +305,7 @@ int run_bench_scenes(const BenchScenesOptions& o) {
                  "scenes; %d with an expected condition, %d with a depth within 1 mm)",
                  group.c_str(), t.scenes, t.frames, t.ok_within, t.ok_beyond, t.scenes_wrong, t.refused,
                  t.scenes_refused, t.refused_expected, t.refused_within);
-    if (group == "clean")
+    if (group == "clean" || group == "steep")
       std::fprintf(text, "; false alarms %.1f %% of frames", t.frames > 0 ? 100.0 * t.refused / t.frames : 0.0);
     std::fprintf(text, "\n");
   }

@@ -206,10 +206,29 @@ void add_dark(std::vector<MatrixScene>& out) {
   }
 }
 
+// Exposure modes: set by hand (exposure, or gain with a shorter exposure), auto in daylight, auto in
+// dim light (gain up).
+constexpr std::array<const char*, 4> kModes = {"manual", "gain", "auto", "auto-dim"};
+
+// The options of exposure `mode` (kModes) for kTextures[texture]. Set by hand as an operator sets it for
+// the terrain: its brightest grains at 60-95 % of full scale (snow, bright and even, then sits high; sand,
+// whose grains spread twice its mean, lower), with a gain of 1.2-3 in the gain mode. Auto exposure holds
+// a median of 35-60 % of full scale, in daylight or dim light.
+std::string exposure_options(Draw& d, const std::string& mode, std::size_t texture) {
+  std::string s;
+  const double level = d.uniform(0.6, 0.95) / (kTextureBrightest[texture] * kGroundLight);
+  if (mode == "manual") s += fmt::format(" --exposure {:.2f}", level);
+  if (mode == "gain") {
+    const double gain = d.uniform(1.2, 3);
+    s += fmt::format(" --exposure {:.3f} --gain {:.2f}", level / gain, gain);
+  }
+  if (mode == "auto" || mode == "auto-dim") s += " --auto-exposure" + draw_option(d, "--ae-target", 0.35, 0.6, 2);
+  if (mode == "auto") s += draw_option(d, "--light", 0.5, 1.5, 2);
+  if (mode == "auto-dim") s += draw_option(d, "--light", 0.12, 0.4, 3);
+  return s;
+}
+
 void add_clean(std::vector<MatrixScene>& out) {
-  // Exposure modes: set by hand (exposure, or gain with a shorter exposure), auto in daylight, auto in
-  // dim light (gain up).
-  constexpr std::array<const char*, 4> kModes = {"manual", "gain", "auto", "auto-dim"};
   Draw d(0xC1EA4);
   for (int i = 0; i < 64; ++i) {
     const char* texture = kTextures[static_cast<std::size_t>(i % 4)];
@@ -220,19 +239,44 @@ void add_clean(std::vector<MatrixScene>& out) {
       s += draw_option(d, "--wander", 20, 60, 0);
       s += draw_option(d, "--wander-wavelength", 800, 3000, 0);
     }
-    // Set by hand as an operator sets it for the terrain: its brightest grains at 60-95 % of full scale
-    // (snow, bright and even, then sits high; sand, whose grains spread twice its mean, lower), with a
-    // gain of 1.2-3 in the gain mode. Auto exposure holds a median of 35-60 % of full scale.
-    const double level = d.uniform(0.6, 0.95) / (kTextureBrightest[static_cast<std::size_t>(i % 4)] * kGroundLight);
-    if (mode == "manual") s += fmt::format(" --exposure {:.2f}", level);
-    if (mode == "gain") {
-      const double gain = d.uniform(1.2, 3);
-      s += fmt::format(" --exposure {:.3f} --gain {:.2f}", level / gain, gain);
-    }
-    if (mode == "auto" || mode == "auto-dim") s += " --auto-exposure" + draw_option(d, "--ae-target", 0.35, 0.6, 2);
-    if (mode == "auto") s += draw_option(d, "--light", 0.5, 1.5, 2);
-    if (mode == "auto-dim") s += draw_option(d, "--light", 0.12, 0.4, 3);
+    s += exposure_options(d, mode, static_cast<std::size_t>(i % 4));
     out.push_back({fmt::format("clean-{}-{}-{:02d}", mode, texture, i), "clean", "clean-" + mode, {}, s});
+  }
+}
+
+// Steep clean ruts, as cohesive ground holds them (snow, mud, grass sod; dry sand slumps to its angle of
+// repose): 55-80 mm deep, walls 51-61 degrees (each 0.55-0.8 of the depth across), bottoms 40-100 mm
+// wide, on any rig and exposure mode. Their low-texture walls, foreshortened differently in the two
+// views, are where DIC loses most of a rut: a depth must be within 1 mm or refused (a refusal is a false
+// alarm, as in the clean group, counted apart).
+void add_steep(std::vector<MatrixScene>& out) {
+  constexpr std::array<std::size_t, 4> kCohesive = {2, 1, 2, 3};  // snow, mud, snow, grass (kTextures)
+  Draw d(0x57EE9);
+  for (int i = 0; i < 16; ++i) {
+    const std::size_t t = kCohesive[static_cast<std::size_t>(i % 4)];
+    const std::string mode = kModes[static_cast<std::size_t>((i / 4) % 4)];
+    const double depth = d.uniform(55, 80), wall = depth * d.uniform(0.55, 0.8), bottom = d.uniform(40, 100);
+    const double width = bottom + 2 * wall;
+    double baseline = 0, height = 0, offset = 0;
+    int hfov = 75;
+    do {
+      baseline = d.uniform(40, 120);
+      height = d.uniform(260, 560);
+      hfov = std::array<int, 3>{60, 75, 90}[static_cast<std::size_t>(d.pick(3))];
+      offset = d.uniform(-40, 40);
+    } while (widest_rut(height, baseline, hfov, offset) < width);
+    std::string s = fmt::format("--texture {} --depth {:.1f} --width {:.0f} --bottom-width {:.0f}", kTextures[t], depth,
+                                width, bottom);
+    s += draw_option(d, "--pile-left", 0, 20, 1);
+    s += draw_option(d, "--pile-right", 0, 20, 1);
+    s += fmt::format(" --offset {:.0f} --baseline {:.0f} --height {:.0f} --hfov {}", offset, baseline, height, hfov);
+    s += draw_option(d, "--roll", -5, 5, 1);
+    s += draw_option(d, "--pitch", -6, 10, 1);
+    s += draw_option(d, "--noise", 1, 2.5, 2);
+    s += draw_option(d, "--speed", 300, 3000, 0);
+    s += draw_option(d, "--right-response", 0.96, 1.06, 3);
+    s += fmt::format(" --seed {}", 2600 + i) + exposure_options(d, mode, t);
+    out.push_back({fmt::format("steep-{}-{}-{:02d}", mode, kTextures[t], i), "steep", "steep-" + mode, {}, s});
   }
 }
 
@@ -307,6 +351,7 @@ std::vector<MatrixScene> scene_matrix() {
   add_lens_faults(scenes);
   add_dark(scenes);
   add_clean(scenes);
+  add_steep(scenes);
   add_tread(scenes);
   add_skew(scenes);
   add_entries(scenes);

@@ -22,7 +22,7 @@ SyntheticRendererConfig parse(const std::string& synth) { return parse_scene_lin
 TEST(SceneMatrix, CoversTheSpoiledAndCleanScenesAndEveryOneIsAValidSynthCommand) {
   const std::vector<MatrixScene> scenes = scene_matrix();
   std::map<std::string, int> groups;
-  std::set<std::string> names, water_kind_texture, lens_kind_side, clean_texture_mode;
+  std::set<std::string> names, water_kind_texture, lens_kind_side, clean_texture_mode, steep_texture_mode;
   int checked = 0, entries = 0;
   for (const MatrixScene& s : scenes) {
     SCOPED_TRACE(s.name + ": " + s.synth);
@@ -68,6 +68,17 @@ TEST(SceneMatrix, CoversTheSpoiledAndCleanScenesAndEveryOneIsAValidSynthCommand)
         EXPECT_TRUE(p.auto_exposure.enabled);
         EXPECT_LE(p.light, 0.4);
       }
+    } else if (s.group == "steep") {
+      EXPECT_EQ(w.level_mm, 0);
+      EXPECT_TRUE(p.conditions.lens.faults.empty());
+      EXPECT_TRUE(s.expect.empty());
+      EXPECT_NE(texture, "sand");  // dry sand slumps to its angle of repose
+      EXPECT_GE(p.rut.depth_mm, 55);
+      // Walls 51-61 degrees: each 0.55-0.8 of the depth across (rounded widths: 1 mm of slack).
+      const double wall = (p.rut.width_mm - p.rut.bottom_width_mm) / 2;
+      EXPECT_GE(wall, 0.55 * p.rut.depth_mm - 1);
+      EXPECT_LE(wall, 0.8 * p.rut.depth_mm + 1);
+      steep_texture_mode.insert(texture + "/" + s.kind);
     } else if (s.group == "tread") {
       EXPECT_TRUE(p.rut.tread);
     } else if (s.group == "entry") {
@@ -95,6 +106,8 @@ TEST(SceneMatrix, CoversTheSpoiledAndCleanScenesAndEveryOneIsAValidSynthCommand)
   EXPECT_EQ(checked, static_cast<int>(scenes.size()));
   EXPECT_GE(groups["spoiled"], 40);
   EXPECT_GE(groups["clean"], 60);
+  EXPECT_EQ(groups["steep"], 16);
+  EXPECT_EQ(steep_texture_mode.size(), 3u * 4u);  // snow, mud and grass in every exposure mode
   EXPECT_EQ(entries, 10);
   EXPECT_EQ(water_kind_texture.size(), 8u * 4u);  // turbid, clear, foam, leaves, litter, glint, wind, rain x 4
   EXPECT_EQ(lens_kind_side.size(), 5u * 3u);      // mud, snow, drops, spray, dust x left, right, both
