@@ -158,12 +158,13 @@ double median_disparity(const cv::Mat& disparity, int row_begin, int row_end, in
 struct VerticalOffsets {
   double largest = kNaN;  // signed offset of largest magnitude; NaN when no block correlates
   int found = 0;
-  int beyond = 0;  // blocks whose |offset| exceeds max_vertical_disparity_px
+  int beyond = 0;    // blocks whose |offset| exceeds max_vertical_disparity_px
+  int over_rut = 0;  // blocks not correlated because they lie over the rut opening
 };
 
 VerticalOffsets vertical_disparity(const cv::Mat& left, const cv::Mat& right, const cv::Mat& disparity, int row_begin,
-                                   int row_end, double strip_disparity, DisparityBand band, const ConditionConfig& c,
-                                   FrameCheckScratch& s) {
+                                   int row_end, double strip_disparity, DisparityBand band, double rut_u0,
+                                   double rut_u1, const ConditionConfig& c, FrameCheckScratch& s) {
   const int search = std::min(c.vertical_search_px, left.rows / 4);
   const int width = c.vertical_block_px;
   // Nothing matched (a calibration far off loses every match): search the whole band.
@@ -176,6 +177,13 @@ VerticalOffsets vertical_disparity(const cv::Mat& left, const cv::Mat& right, co
   for (int k = 0; k < blocks; ++k) {
     // Blocks spread over the middle of the strip, where the right camera sees the same ground.
     const int x0 = static_cast<int>((0.2 + 0.6 * (k + 0.5) / blocks) * left.cols) - width / 2;
+    // Not over the rut: its walls' disparity changes across a block (by several pixels on a steep one),
+    // which a rigid block cannot follow; it trades the misfit for a vertical offset (measured: -0.88 px on
+    // a clean sand rut in dim light, -8 px at a steep snow wall's edge, where the rows slide along it).
+    if (x0 + width > rut_u0 && x0 < rut_u1) {
+      ++out.over_rut;
+      continue;
+    }
     double d = known ? median_disparity(disparity, row_begin, row_end, x0, x0 + width, s.values) : kNaN;
     if (!std::isfinite(d)) d = strip_disparity;
     const int rx0 = x0 - static_cast<int>(std::lround(d)) - slack;
@@ -191,6 +199,11 @@ VerticalOffsets vertical_disparity(const cv::Mat& left, const cv::Mat& right, co
     double peak = 0.0;
     cv::minMaxLoc(s.result, nullptr, &peak, nullptr, &best);
     if (!(peak >= c.min_vertical_correlation)) continue;
+    // Texture that varies along the columns only (a rut's edge or a shadow's, running along travel: the
+    // rows slide along it) correlates about as well at every row searched, and its peak is chance.
+    double lowest = peak;
+    for (int y = 0; y < s.result.rows; ++y) lowest = std::min(lowest, double(s.result.at<float>(y, best.x)));
+    if (peak - lowest < c.min_vertical_contrast) continue;
     double dy = best.y;
     if (best.y > 0 && best.y + 1 < s.result.rows) {
       const float a = s.result.at<float>(best.y - 1, best.x), b = s.result.at<float>(best.y, best.x),
@@ -375,6 +388,8 @@ void validate(const ConditionConfig& c) {
   require(c.vertical_block_px >= 8 && c.vertical_block_px <= 256, "vertical_block_px", "must be within [8, 256]");
   require(c.min_vertical_correlation > 0 && c.min_vertical_correlation < 1, "min_vertical_correlation",
           "must be within (0, 1)");
+  require(c.min_vertical_contrast >= 0 && c.min_vertical_contrast < 2, "min_vertical_contrast",
+          "must be within [0, 2)");
   require(c.vegetation_unmatched_share > 0 && c.vegetation_unmatched_share <= 1, "vegetation_unmatched_share",
           "must be within (0, 1]");
   require(c.vegetation_min_blocks >= 1, "vegetation_min_blocks", "must be >= 1");
@@ -557,15 +572,17 @@ void check_frame(const cv::Mat& left, const cv::Mat& right, const cv::Mat& dispa
       m.conditions |= kConditionVegetation;
 
     // Calibration.
-    // Drift when at least a third of the correlating blocks (at least one) are beyond the limit: one
-    // block's chance match cannot raise it, a roll that moves only the strip's ends can.
-    const VerticalOffsets v = vertical_disparity(left, right, disparity, row_begin, row_end, d0, band, c, s);
+    // Drift when at least a third of the correlating blocks are beyond the limit, and two of them unless
+    // only one correlates: one block's chance match cannot raise it (a block on a pile's slope beside the
+    // rut, 0.74 px, when the two over the rut are left out), a roll that moves only the strip's ends can.
+    const VerticalOffsets v = vertical_disparity(left, right, disparity, row_begin, row_end, d0, band, u0, u1, c, s);
     m.vertical_disparity_px = v.largest;
-    const bool offset = v.found > 0 && 3 * v.beyond >= v.found;
+    const bool offset = v.found > 0 && 3 * v.beyond >= v.found && (v.beyond >= 2 || v.found == 1);
     // A known skew explains offsets beyond the limit, or views too far apart to correlate at all; not a
     // view with nothing to correlate (no texture in one or both: a covered lens, a featureless scene).
     unsynchronised = std::abs(static_cast<double>(skew_ns)) * 1e-6 >= c.unsynchronised_skew_ms &&
-                     c.unsynchronised_skew_ms > 0 && (offset || (v.found == 0 && !flat_left && !flat_right));
+                     c.unsynchronised_skew_ms > 0 &&
+                     (offset || (v.found == 0 && v.over_rut < c.vertical_blocks && !flat_left && !flat_right));
     if (offset && !unsynchronised) m.conditions |= kConditionCalibrationDrift;
 
     // Water / flat patch inside the rut opening, against the texture of the ground outside it.

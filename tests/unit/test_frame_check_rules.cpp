@@ -300,6 +300,65 @@ TEST(FrameChecks, RowsShiftedAreCalibrationDrift) {
   EXPECT_EQ(m.status, RutStatus::CalibrationDrift);
 }
 
+// Texture that varies along the columns only (a steep rut's edges and shadows, running along travel):
+// each view's rows all alike but for its own sensor noise. The rows slide along it, so no vertical offset
+// can be read there, and none may be reported as drift: without the contrast test, the blocks' peaks fell
+// anywhere in the +-8 rows searched and the pair was flagged.
+TEST(FrameChecks, TextureAlongTheColumnsOnlySaysNothingOfAVerticalOffset) {
+  int checked = 0;
+  for (unsigned seed = 1; seed <= 6; ++seed) {
+    std::mt19937 rng(seed);
+    std::normal_distribution<double> noise(0.0, 1.0);
+    std::vector<double> profile(kWidth + kDisparity);
+    for (double& v : profile) v = noise(rng);
+    cv::Mat row(1, kWidth + kDisparity, CV_64F, profile.data());
+    cv::GaussianBlur(row, row, cv::Size(0, 0), 3.0);
+    cv::normalize(row, row, 60, 200, cv::NORM_MINMAX);
+    Strips s(120, 25, seed);
+    for (int y = 0; y < kRows; ++y) {
+      for (int x = 0; x < kWidth; ++x) {
+        s.left.at<std::uint8_t>(y, x) = cv::saturate_cast<std::uint8_t>(row.at<double>(0, x) + 1.5 * noise(rng));
+        s.right.at<std::uint8_t>(y, x) =
+            cv::saturate_cast<std::uint8_t>(row.at<double>(0, x + kDisparity) + 1.5 * noise(rng));
+      }
+    }
+    const RutMeasurement m = check(s);
+    EXPECT_FALSE(m.conditions & kConditionCalibrationDrift) << "seed " << seed << ": " << m.vertical_disparity_px;
+    EXPECT_NE(m.status, RutStatus::CalibrationDrift) << "seed " << seed;
+    ++checked;
+  }
+  EXPECT_EQ(checked, 6);
+}
+
+// Where the blocks reach into the rut opening the right view's rows are two lower (as a wall's misfit in a
+// rigid block reads), beside it they fit: the calibration is judged on the ground beside the rut, and is not flagged.
+// The same offset across the whole view is drift with the opening known, as without it.
+TEST(FrameChecks, OffsetsOverTheRutAreNoCalibrationDrift) {
+  RutGeometry rut;  // ground 400 mm away, the opening X -40..40 mm: columns 249.5..389.5 of the 700 px lens
+  rut.has_line = rut.has_rut = true;
+  rut.line_c = 400;
+  rut.left_x_mm = -40;
+  rut.right_x_mm = 40;
+  Strips s(120, 25);
+  // The right view's columns of the blocks that reach into the opening (left columns 226..414).
+  const cv::Rect over_rut(226 - kDisparity, 0, 188, kRows);
+  cv::Mat shifted;
+  cv::copyMakeBorder(s.right(over_rut).rowRange(0, kRows - 2), shifted, 2, 0, 0, 0, cv::BORDER_REPLICATE);
+  shifted.copyTo(s.right(over_rut));
+  const RutMeasurement beside = check(s, {}, 0, rut);
+  EXPECT_FALSE(beside.conditions & kConditionCalibrationDrift) << beside.vertical_disparity_px;
+  EXPECT_NEAR(beside.vertical_disparity_px, 0.0, 0.3);
+  // Without the opening the three blocks over it are read, and flag it.
+  EXPECT_TRUE(check(s).conditions & kConditionCalibrationDrift);
+
+  Strips all(120, 25);
+  cv::copyMakeBorder(all.right.rowRange(0, kRows - 2), shifted, 2, 0, 0, 0, cv::BORDER_REPLICATE);
+  all.right = shifted;
+  const RutMeasurement drift = check(all, {}, 0, rut);
+  EXPECT_TRUE(drift.conditions & kConditionCalibrationDrift);
+  EXPECT_NEAR(drift.vertical_disparity_px, 2.0, 0.3);
+}
+
 // Free-running cameras: the same two-row shift with the right camera exposed 3 ms after the left is the
 // vehicle's motion, not the calibration's; so is a shift too large to correlate. Synchronised, or with the
 // views aligned, nothing changes.

@@ -96,13 +96,21 @@ struct ConditionConfig {
   // over +-vertical_search_px rows (sub-pixel by a parabola). Rectification leaves a few hundredths of
   // a pixel with a calibration that fits; DIC windows do not follow a vertical offset, so one above
   // max_vertical_disparity_px both loses matches and biases the disparity of oblique texture. Drift is
-  // flagged when at least a third of the correlating blocks exceed it (a roll moves the strip's ends
-  // in opposite directions); RutMeasurement::vertical_disparity_px is the largest offset.
+  // flagged when at least a third of the correlating blocks exceed it, and two unless only one
+  // correlates (a roll moves the strip's ends in opposite directions); vertical_disparity_px
+  // (RutMeasurement) is the largest offset. Blocks over the rut opening are left out: a wall's
+  // disparity changes across a block, which a rigid block cannot follow (a steep wall's edge lets the
+  // rows slide along it), and a calibration shows on the ground.
   double max_vertical_disparity_px = 0.7;
   int vertical_search_px = 8;
   int vertical_blocks = 5;
   int vertical_block_px = 24;
   double min_vertical_correlation = 0.6;  // a block whose best correlation is lower is not used
+  // ... nor one whose correlation at the best column falls less than this below its peak over the rows
+  // searched: texture that varies along the columns only (a steep rut wall's edge or its shadow's, along
+  // travel, where the rut was not found) lets the rows slide along it, and where its peak lies is chance
+  // (measured on steep snow ruts: 0.01-0.14 below the peak at an edge, 0.75-0.85 on the snow beside it).
+  double min_vertical_contrast = 0.3;
   // Free-running cameras: a pair whose cameras exposed at least unsynchronised_skew_ms apart
   // (StereoFrame::skew_ns, where the source knows it) shows the ground moved by speed x skew between
   // the two views, off the epipolar lines as a drifted calibration is. There, offsets beyond the limit,
