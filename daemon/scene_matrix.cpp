@@ -166,29 +166,45 @@ void add_lens_faults(std::vector<MatrixScene>& out) {
   }
 }
 
-// A clean rut on any rig: the rig drawn first (baseline, height, lens, where the rut lies), then a rut
-// it sees whole with ground beside it.
-std::string any_rig_and_rut(Draw& d, const char* texture, int seed) {
+// A rig drawn until it sees a rut `width` wide whole, with its piles and ground beside them: baseline,
+// height above the ground, lens, where the rut lies.
+struct Rig {
   double baseline = 0, height = 0, offset = 0;
   int hfov = 75;
+};
+Rig draw_rig(Draw& d, double width) {
+  Rig r;
   do {
-    baseline = d.uniform(40, 120);
-    height = d.uniform(260, 560);
-    hfov = std::array<int, 3>{60, 75, 90}[static_cast<std::size_t>(d.pick(3))];
-    offset = d.uniform(-40, 40);
-  } while (widest_rut(height, baseline, hfov, offset) < 140);
-  const double width = d.uniform(140, std::min(300.0, widest_rut(height, baseline, hfov, offset)));
-  std::string s = fmt::format("--texture {}", texture) + draw_option(d, "--depth", 15, 80, 1);
-  s += fmt::format(" --width {:.0f} --bottom-width {:.0f}", width, width * d.uniform(0.3, 0.6));
-  s += draw_option(d, "--pile-left", 0, 20, 1);
+    r.baseline = d.uniform(40, 120);
+    r.height = d.uniform(260, 560);
+    r.hfov = std::array<int, 3>{60, 75, 90}[static_cast<std::size_t>(d.pick(3))];
+    r.offset = d.uniform(-40, 40);
+  } while (widest_rut(r.height, r.baseline, r.hfov, r.offset) < width);
+  return r;
+}
+
+// The options after the rut's shape: its piles, the rig, its pose, the sensor's noise, the speed, the
+// right camera's response and the seed.
+std::string rig_options(Draw& d, const Rig& r, int seed) {
+  std::string s = draw_option(d, "--pile-left", 0, 20, 1);
   s += draw_option(d, "--pile-right", 0, 20, 1);
-  s += fmt::format(" --offset {:.0f} --baseline {:.0f} --height {:.0f} --hfov {}", offset, baseline, height, hfov);
+  s += fmt::format(" --offset {:.0f} --baseline {:.0f} --height {:.0f} --hfov {}", r.offset, r.baseline, r.height,
+                   r.hfov);
   s += draw_option(d, "--roll", -5, 5, 1);
   s += draw_option(d, "--pitch", -6, 10, 1);
   s += draw_option(d, "--noise", 1, 2.5, 2);
   s += draw_option(d, "--speed", 300, 3000, 0);
   s += draw_option(d, "--right-response", 0.96, 1.06, 3);
   return s + fmt::format(" --seed {}", seed);
+}
+
+// A clean rut on any rig: the rig drawn first, then a rut it sees whole with ground beside it.
+std::string any_rig_and_rut(Draw& d, const char* texture, int seed) {
+  const Rig r = draw_rig(d, 140);
+  const double width = d.uniform(140, std::min(300.0, widest_rut(r.height, r.baseline, r.hfov, r.offset)));
+  std::string s = fmt::format("--texture {}", texture) + draw_option(d, "--depth", 15, 80, 1);
+  s += fmt::format(" --width {:.0f} --bottom-width {:.0f}", width, width * d.uniform(0.3, 0.6));
+  return s + rig_options(d, r, seed);
 }
 
 // Night: auto exposure at its longest exposure and highest gain, the texture under the noise.
@@ -257,25 +273,11 @@ void add_steep(std::vector<MatrixScene>& out) {
     const std::string mode = kModes[static_cast<std::size_t>((i / 4) % 4)];
     const double depth = d.uniform(55, 80), wall = depth * d.uniform(0.55, 0.8), bottom = d.uniform(40, 100);
     const double width = bottom + 2 * wall;
-    double baseline = 0, height = 0, offset = 0;
-    int hfov = 75;
-    do {
-      baseline = d.uniform(40, 120);
-      height = d.uniform(260, 560);
-      hfov = std::array<int, 3>{60, 75, 90}[static_cast<std::size_t>(d.pick(3))];
-      offset = d.uniform(-40, 40);
-    } while (widest_rut(height, baseline, hfov, offset) < width);
+    const Rig r = draw_rig(d, width);
     std::string s = fmt::format("--texture {} --depth {:.1f} --width {:.0f} --bottom-width {:.0f}", kTextures[t], depth,
                                 width, bottom);
-    s += draw_option(d, "--pile-left", 0, 20, 1);
-    s += draw_option(d, "--pile-right", 0, 20, 1);
-    s += fmt::format(" --offset {:.0f} --baseline {:.0f} --height {:.0f} --hfov {}", offset, baseline, height, hfov);
-    s += draw_option(d, "--roll", -5, 5, 1);
-    s += draw_option(d, "--pitch", -6, 10, 1);
-    s += draw_option(d, "--noise", 1, 2.5, 2);
-    s += draw_option(d, "--speed", 300, 3000, 0);
-    s += draw_option(d, "--right-response", 0.96, 1.06, 3);
-    s += fmt::format(" --seed {}", 2600 + i) + exposure_options(d, mode, t);
+    s += rig_options(d, r, 2600 + i);  // before the exposure's: the draws' order is the scenes'
+    s += exposure_options(d, mode, t);
     out.push_back({fmt::format("steep-{}-{}-{:02d}", mode, kTextures[t], i), "steep", "steep-" + mode, {}, s});
   }
 }
