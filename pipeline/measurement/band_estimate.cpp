@@ -20,6 +20,17 @@ constexpr double kSpreadMargin = 0.25;  // of the 2..98 percentile spread
 // Mean |Sobel x| over 5x5 below which a coarse pixel counts as untextured: about 2 grey levels per px
 // (3x3 Sobel reads 8x the gradient). SGBM returns confident-looking values on flat images.
 constexpr double kMinTexture = 16.0;
+// A band of the working range that leaves less than this share of the coarse strip's columns matchable
+// (StereoSGBM gives no disparity left of min + num disparities) is narrowed around the terrain's dominant
+// disparity first: a wide baseline with a near working range can leave only a margin of the image, which
+// may hold no texture (plain snow) or miss the rut.
+constexpr double kMinMatchableShare = 0.5;
+// The narrowed band: the dominant disparity times 1 -/+ this, which holds terrain from a third nearer
+// (piles, a pitched rig's near rows) to twice as far (ruts as deep as the camera is high).
+constexpr double kDominantSpread = 0.5;
+// The least correlation of the strips' gradients at the dominant disparity: at least a sixth of the
+// gradient energy must line up (chance alone gives a few hundredths on a coarse strip).
+constexpr double kMinDominantNcc = 0.15;
 
 int round_up16(int n) { return std::max(16, (n + 15) / 16 * 16); }
 
@@ -33,7 +44,44 @@ double percentile(std::vector<float>& values, double q) {
   return values[static_cast<std::size_t>(k)];
 }
 
+double matchable_share(const DisparityBand& coarse_band, int coarse_width) {
+  const int blind = coarse_band.min_disparity + coarse_band.num_disparities;
+  return coarse_width > 0 ? std::max(0.0, double(coarse_width - blind) / double(coarse_width)) : 0.0;
+}
+
 }  // namespace
+
+int dominant_disparity(const cv::Mat& left, const cv::Mat& right, DisparityBand band, cv::Mat& grad_left,
+                       cv::Mat& grad_right) {
+  cv::Sobel(left, grad_left, CV_32F, 1, 0, 3);
+  cv::Sobel(right, grad_right, CV_32F, 1, 0, 3);
+  const int width = left.cols;
+  const int hi = std::min(band.min_disparity + band.num_disparities - 1, width - width / 4);
+  int best = -1;
+  double best_ncc = 0.0, best_floor = 1.0;
+  for (int d = std::max(0, band.min_disparity); d <= hi; ++d) {
+    double lr = 0.0, ll = 0.0, rr = 0.0;
+    for (int r = 0; r < left.rows; ++r) {
+      const float* gl = grad_left.ptr<float>(r);
+      const float* gr = grad_right.ptr<float>(r);
+      for (int x = d; x < width; ++x) {
+        lr += double(gl[x]) * gr[x - d];
+        ll += double(gl[x]) * gl[x];
+        rr += double(gr[x - d]) * gr[x - d];
+      }
+    }
+    if (ll <= 0.0 || rr <= 0.0) continue;
+    const double ncc = lr / std::sqrt(ll * rr);
+    if (ncc > best_ncc) {
+      best_ncc = ncc;
+      best = d;
+      // Unrelated gradients correlate about 1/sqrt(samples) by chance (neighbours share a Sobel kernel,
+      // so a third of the pixels count as independent).
+      best_floor = 6.0 / std::sqrt(double(left.rows) * double(width - d) / 3.0);
+    }
+  }
+  return best_ncc >= std::max(kMinDominantNcc, best_floor) ? best : -1;
+}
 
 DisparityBand band_for_range(const StereoGeometry& g, WorkingRange range) {
   const double d_far = g.disparity_at(std::max(range.near_mm, range.far_mm));
@@ -46,6 +94,7 @@ DisparityBand band_for_range(const StereoGeometry& g, WorkingRange range) {
 BandEstimator::Plan BandEstimator::plan(const StereoGeometry& g, WorkingRange range, cv::Size strip) {
   Plan p;
   p.full = band_for_range(g, range);
+  p.fallback = p.full;
   const int full_hi = p.full.min_disparity + p.full.num_disparities - 1;
   while (p.full.num_disparities / p.scale > kMaxCoarseSpan) p.scale *= 2;  // along x only: rows are few already
   const int coarse_width = strip.width / p.scale;
@@ -61,7 +110,7 @@ BandEstimator::Plan BandEstimator::plan(const StereoGeometry& g, WorkingRange ra
 
 DisparityBand BandEstimator::estimate(const cv::Mat& left_strip, const cv::Mat& right_strip, const StereoGeometry& g,
                                       WorkingRange range) {
-  const Plan p = plan(g, range, left_strip.size());
+  Plan p = plan(g, range, left_strip.size());
   if (!p.coarse) return p.full;
   cv::resize(left_strip, left_, p.coarse_size, 0, 0, cv::INTER_AREA);
   cv::resize(right_strip, right_, p.coarse_size, 0, 0, cv::INTER_AREA);
@@ -72,8 +121,22 @@ DisparityBand BandEstimator::estimate(const cv::Mat& left_strip, const cv::Mat& 
     engine_ = make_cpu_engine(EngineKind::Sgbm3Way, params);
     engine_block_ = block;
   }
+  if (matchable_share(p.coarse_band, p.coarse_size.width) < kMinMatchableShare) narrow_to_dominant(p);
   engine_->compute(left_, right_, p.coarse_band, coarse_);
   return band_from_coarse(p);
+}
+
+void BandEstimator::narrow_to_dominant(Plan& p) {
+  const int d = dominant_disparity(left_, right_, p.coarse_band, grad_left_, grad_right_);
+  if (d < 0) return;
+  const int coarse_hi = p.coarse_band.min_disparity + p.coarse_band.num_disparities - 1;
+  const int spread = std::max(4, static_cast<int>(std::ceil(kDominantSpread * d)));
+  const int lo = std::max(p.coarse_band.min_disparity, d - spread);
+  const int hi = std::min(coarse_hi, d + spread);
+  p.coarse_band = band_between(lo, hi);
+  const int full_hi = p.full.min_disparity + p.full.num_disparities - 1;
+  p.fallback =
+      band_between(std::max(p.full.min_disparity, lo * p.scale), std::min(full_hi, hi * p.scale + p.scale - 1));
 }
 
 std::optional<DisparityBand> BandEstimator::estimate_on_device(DisparityEngine& engine, const cv::Mat& left_raw,
@@ -81,7 +144,8 @@ std::optional<DisparityBand> BandEstimator::estimate_on_device(DisparityEngine& 
                                                                WorkingRange range, cv::Mat& left_strip,
                                                                cv::Mat& right_strip) {
   const Plan p = plan(g, range, cv::Size(g.rectified_size().width, g.roi().rows));
-  if (!p.coarse ||
+  // A band to narrow first is narrowed on the CPU (estimate(), from strips the caller rectifies).
+  if (!p.coarse || matchable_share(p.coarse_band, p.coarse_size.width) < kMinMatchableShare ||
       !engine.coarse_match(left_raw, right_raw, g, p.scale, p.coarse_band, left_strip, right_strip, left_, coarse_))
     return std::nullopt;
   return band_from_coarse(p);
@@ -102,7 +166,7 @@ DisparityBand BandEstimator::band_from_coarse(const Plan& p) {
       if (std::isfinite(row[x]) && tex[x] >= kMinTexture) found_.push_back(row[x] * static_cast<float>(scale));
     }
   }
-  if (static_cast<double>(found_.size()) < kMinCoarseValid * static_cast<double>(coarse_.total())) return p.full;
+  if (static_cast<double>(found_.size()) < kMinCoarseValid * static_cast<double>(coarse_.total())) return p.fallback;
   const double lo = percentile(found_, kLowPercentile);
   const double hi = percentile(found_, kHighPercentile);
   const double margin = std::max({kMinMarginPx, 2.0 * scale, kSpreadMargin * (hi - lo)});

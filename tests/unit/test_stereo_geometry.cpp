@@ -275,6 +275,47 @@ TEST(EstimateBand, FindsTheGroundForAllSupportedRigs) {
   }
 }
 
+// A wide baseline with the default near end (150 mm) leaves StereoSGBM only the right 35% of the coarse
+// strip, and there the ground is plain (snow): the texture, and the rut, lie further left. The band must
+// still be found, from the whole overlap.
+TEST(EstimateBand, FindsTheGroundWhereTheWorkingRangeLeavesOnlyPlainColumns) {
+  const WorkingRange range;  // 150..1500 mm
+  const StereoGeometry g(ideal_rig(1000.0, 120.0), StripRoi{456, 48});
+  const DisparityBand full = band_for_range(g, range);
+  ASSERT_GT(full.min_disparity + full.num_disparities, 800);  // columns left of this match nothing
+  int checked = 0;
+  for (double height : {450.0, 600.0, 750.0}) {
+    const double d = std::round(g.disparity_at(height));
+    cv::Mat left, right;
+    plane_strips(d, cv::Size(1280, 48), left, right);
+    // Plain ground from left column 700 on (and where it lies in the right view).
+    left.colRange(700, left.cols).setTo(128);
+    right.colRange(700 - static_cast<int>(d), right.cols).setTo(128);
+    const DisparityBand band = estimate_band(left, right, g, range);
+    EXPECT_LE(band.min_disparity, d - 2) << height;
+    EXPECT_GE(band.min_disparity + band.num_disparities - 1, d + 2) << height;
+    EXPECT_LE(band.num_disparities, 48) << height;
+    cv::Mat gl, gr;
+    const int scale = 8;  // what the coarse pass averages for this band (736 px / 128)
+    cv::Mat cl, cr;
+    cv::resize(left, cl, cv::Size(1280 / scale, 24), 0, 0, cv::INTER_AREA);
+    cv::resize(right, cr, cv::Size(1280 / scale, 24), 0, 0, cv::INTER_AREA);
+    const int dominant = dominant_disparity(cl, cr, DisparityBand{full.min_disparity / scale, 96}, gl, gr);
+    EXPECT_NEAR(dominant * scale, d, scale) << height;
+    ++checked;
+  }
+  EXPECT_EQ(checked, 3);
+  // Unrelated strips have no dominant disparity.
+  cv::Mat a, b, unused;
+  plane_strips(0, cv::Size(160, 24), a, unused);
+  cv::RNG rng(7);
+  b.create(24, 160, CV_8U);
+  rng.fill(b, cv::RNG::UNIFORM, 0, 255);
+  cv::GaussianBlur(b, b, cv::Size(0, 0), 1.2);
+  cv::Mat gl, gr;
+  EXPECT_EQ(dominant_disparity(a, b, DisparityBand{0, 96}, gl, gr), -1);
+}
+
 TEST(EstimateBand, FallsBackToTheFullBandWithoutTexture) {
   const StereoGeometry g(ideal_rig(1000.0, 60.0), StripRoi{456, 48});
   const cv::Mat flat(48, 1280, CV_8UC1, cv::Scalar(128));

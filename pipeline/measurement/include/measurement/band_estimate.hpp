@@ -28,8 +28,11 @@ DisparityBand band_for_range(const StereoGeometry& g, WorkingRange range);
 // row; StereoSGBM 3-way) finds the disparities present at textured pixels; returns a narrow band around
 // them (2nd..98th percentile plus a margin of max(4 px, 2 coarse px, 25% of the spread)), clamped to
 // band_for_range(range). Returns band_for_range(range) when fewer than 5% of the coarse pixels get a
-// disparity. BandEstimator keeps the coarse matcher and its buffers between calls, for the per-frame path
-// (one per thread); estimate_band is the one-off form and builds them each call.
+// disparity. Where that band would leave under half of the coarse strip matchable (a wide baseline and
+// a near working range), the coarse pass searches only 0.5..1.5 times the dominant disparity (see
+// dominant_disparity), and returns that band when it finds too little. BandEstimator keeps the coarse
+// matcher and its buffers between calls, for the per-frame path (one per thread); estimate_band is the
+// one-off form and builds them each call.
 class BandEstimator {
  public:
   DisparityBand estimate(const cv::Mat& left_strip, const cv::Mat& right_strip, const StereoGeometry& g,
@@ -44,19 +47,23 @@ class BandEstimator {
 
  private:
   struct Plan {
-    DisparityBand full;   // band_for_range
-    int scale = 1;        // columns averaged per coarse pixel
-    bool coarse = false;  // false: the full band is the answer
+    DisparityBand full;      // band_for_range
+    DisparityBand fallback;  // the answer when the coarse pass finds too little: full, or the narrowed band
+    int scale = 1;           // columns averaged per coarse pixel
+    bool coarse = false;     // false: the full band is the answer
     DisparityBand coarse_band;
     cv::Size coarse_size;
   };
   static Plan plan(const StereoGeometry& g, WorkingRange range, cv::Size strip);
   // From coarse_ and left_ (the coarse pair's disparity and left image).
   DisparityBand band_from_coarse(const Plan& p);
+  // Narrows p.coarse_band (and p.fallback) around dominant_disparity of left_ and right_; unchanged when
+  // none stands out.
+  void narrow_to_dominant(Plan& p);
 
   std::unique_ptr<DisparityEngine> engine_;
   int engine_block_ = 0;  // block size engine_ was made with
-  cv::Mat left_, right_, coarse_, texture_;
+  cv::Mat left_, right_, coarse_, texture_, grad_left_, grad_right_;
   std::vector<float> found_;
 };
 
@@ -85,6 +92,13 @@ class BandTracker {
   double first_valid_ = 0;
   std::vector<float> values_;
 };
+
+// The disparity (px of the given strips) in `band` at which the strips' horizontal gradients correlate
+// best over their whole overlap (kept to at least a quarter of the width): the terrain's dominant
+// disparity, found where StereoSGBM can look at only a margin of the image. -1 when the best correlation
+// is under 0.15 or within chance for the pixels compared. grad_left, grad_right: scratch.
+int dominant_disparity(const cv::Mat& left, const cv::Mat& right, DisparityBand band, cv::Mat& grad_left,
+                       cv::Mat& grad_right);
 
 DisparityBand estimate_band(const cv::Mat& left_strip, const cv::Mat& right_strip, const StereoGeometry& g,
                             WorkingRange range);
