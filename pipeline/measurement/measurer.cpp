@@ -974,11 +974,14 @@ std::string gap_fill_window_problem(int half_window, int narrow_half_window) {
 namespace {
 
 // dst: src with each row's runs of NaN between two valid values, in rows [row_begin, row_end), filled by
-// linear interpolation between them (runs at a row's ends stay NaN); other rows NaN. The start of a
-// second DIC reading of the gaps: a wall the windows rejected lies between the values at its ends to
-// within the DIC's convergence range far more often than the engine's start there exists (reused
-// starts carry the last frame's gaps, and a GPU engine keeps its start on the device).
-void carry_across_gaps(const cv::Mat& src, int row_begin, int row_end, cv::Mat& dst) {
+// linear interpolation between them; runs at a row's ends stay NaN unless to_ends, which carries the
+// outermost value out to them; other rows NaN. The start of a second DIC reading of the gaps: a wall the
+// windows rejected lies between the values at its ends to within the DIC's convergence range far more
+// often than the engine's start there exists (reused starts carry the last frame's gaps, and a GPU
+// engine keeps its start on the device). to_ends for the low-texture reading: on plain snow the engine
+// may match only the rut's shaded walls, and the ground beyond, near a plane, lies within the DIC's reach
+// of their outer edges.
+void carry_across_gaps(const cv::Mat& src, int row_begin, int row_end, cv::Mat& dst, bool to_ends = false) {
   dst.create(src.size(), CV_32FC1);
   dst.setTo(std::numeric_limits<float>::quiet_NaN());
   for (int r = std::max(row_begin, 0); r < std::min(row_end, src.rows); ++r) {
@@ -993,6 +996,12 @@ void carry_across_gaps(const cv::Mat& src, int row_begin, int row_end, cv::Mat& 
         for (int k = last + 1; k < c; ++k) out[k] = in[last] + step * static_cast<float>(k - last);
       }
       last = c;
+    }
+    if (to_ends && last >= 0) {
+      int c0 = 0;
+      while (std::isnan(in[c0])) ++c0;
+      for (int k = 0; k < c0; ++k) out[k] = in[c0];
+      for (int k = last + 1; k < src.cols; ++k) out[k] = in[last];
     }
   }
 }
@@ -1040,7 +1049,7 @@ void StereoMeasurer::read_low_texture(FrameWork& w, RutWorkspace& workspace, con
   if (!(noise > 0.0)) return;
   DicConfig dic = strip_dic_config();
   dic.noise_grey = noise;
-  carry_across_gaps(w.disparity, dic.row_begin, dic.row_end, w.low_disparity);
+  carry_across_gaps(w.disparity, dic.row_begin, dic.row_end, w.low_disparity, true);
   const DicStats stats = refine_disparity_dic(w.left_strip, w.right_strip, w.low_disparity, dic, w.gap_dic);
   if (stats.refined <= w.diag.dic.refined) return;  // the noise kept no window the first reading lost
   geometry_.reproject(w.low_disparity, w.xyz);
