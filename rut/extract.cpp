@@ -565,7 +565,15 @@ RutMeasurement extract_rut(const CrossSection& section, const RutConfig& params,
     if (!std::isnan(ws.h_fit[i]) && !std::isnan(ws.h_raw[i]) && (k < 0 || ws.h_fit[i] < ws.h_fit[k])) k = i;
   }
   if (k < 0 || -ws.h_fit[k] < min_depth) {
-    out.status = RutStatus::NoRut;
+    // The smoother leaves a bin without a value where its window holds too few measured bins: a rut whose
+    // walls and bottom the matcher lost but for fragments (plain snow) is smoothed away with them. Raw
+    // bins as many as a quarter of a window deeper than noise can reach are such a rut, not flat ground:
+    // its depth is unknown, not zero.
+    const double deep = std::max(min_depth, 6.0 * p.sigma);
+    int deep_bins = 0;
+    for (int i = 0; i < n; ++i) deep_bins += -ws.h_raw[i] > deep;  // false for NaN
+    out.status = 2 * deep_bins >= p.half ? RutStatus::Uncertain : RutStatus::NoRut;
+    if (out.status == RutStatus::Uncertain) out.conditions |= kConditionUncertain;
     return out;
   }
   const Opening o = find_opening(ws.h_fit, p.grid, k, p);

@@ -388,6 +388,43 @@ TEST(ExtractRut, FlatGroundIsNoRut) {
   }
 }
 
+// A rut the matcher lost but for fragments of its bottom (plain snow: walls and most of the bottom
+// unmatched): the smoother's windows hold too few measured bins there to give a value, so the smoothed
+// profile shows flat ground. The raw fragments lie far deeper than noise reaches: the rut is there, its
+// depth unknown, and the section must say so (Uncertain), not that there is no rut. The same gaps on
+// flat ground, with a few stray deep bins, stay NoRut.
+TEST(ExtractRut, ARutSeenOnlyInFragmentsIsNotNoRut) {
+  const auto lose_all_but_fragments = [](CrossSection& c, int fragment) {
+    for (int x = -100; x <= 100; ++x) {
+      const bool kept = (x >= -30 && x < -30 + fragment) || (x >= 25 && x < 25 + fragment);
+      if (!kept) c.z_mm[static_cast<std::size_t>(x - int(kX0))] = kNaN;
+    }
+  };
+  int checked = 0;
+  for (double depth : {50.0, 75.0}) {
+    for (int fragment : {7, 9}) {
+      RutShape s;
+      s.depth = depth;
+      CrossSection c = make_section(s, View{}, kX0, kBins, 1.0, 0.3, 5);
+      lose_all_but_fragments(c, fragment);
+      const RutMeasurement m = measure(c);
+      EXPECT_EQ(m.status, RutStatus::Uncertain)
+          << to_string(m.status) << " depth " << depth << " fragment " << fragment;
+      EXPECT_TRUE(m.conditions & kConditionUncertain);
+      ++checked;
+    }
+  }
+  EXPECT_EQ(checked, 4);
+  RutShape flat;
+  flat.depth = 0.0;
+  flat.left_pile = flat.right_pile = 0.0;
+  CrossSection c = make_section(flat, View{}, kX0, kBins, 1.0, 0.3, 5);
+  lose_all_but_fragments(c, 9);
+  c.z_mm[static_cast<std::size_t>(-28 - int(kX0))] += 60.0;  // two stray bins, deep
+  c.z_mm[static_cast<std::size_t>(27 - int(kX0))] += 60.0;
+  EXPECT_EQ(measure(c).status, RutStatus::NoRut);
+}
+
 TEST(ExtractRut, RutAtEdge) {
   RutShape s;
   s.center_u = 260.0;  // opening reaches X = 360, beyond the section's last bin at 319

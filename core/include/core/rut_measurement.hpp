@@ -38,7 +38,8 @@ enum class RutStatus : std::uint8_t {
   CalibrationDrift = 8,  // matched features drift off the epipolar lines: the calibration no longer fits
   BottomNotSeen = 9,     // standing water or another flat textureless patch where the rut bottom should be
   Vegetation = 10,       // the profile is rough at scales that soil is not (grass above the soil)
-  Uncertain = 11,        // the estimated depth uncertainty exceeds RutConfig::max_depth_uncertainty_mm
+  Uncertain = 11,        // the estimated depth uncertainty exceeds RutConfig::max_depth_uncertainty_mm, or
+                         // the rut was seen only in fragments too sparse to give a depth at all
   // The two cameras exposed too far apart (free-running, StereoFrame::skew_ns): the vehicle moved between
   // them and the right view is shifted off the epipolar lines by that motion, not by the calibration.
   Unsynchronised = 12,
