@@ -605,11 +605,16 @@ RutMeasurement extract_rut(const CrossSection& section, const RutConfig& params,
   out.depth_mm = depth_at(k, &overshoot);
   const double u_fit = 0.5 * overshoot;
   // A gap within the sliding fit's half window of k leans the smoothed value there on the gap's edge: the
-  // depth read at the deepest bin clear of gaps is the other hypothesis, and half of how much deeper the
-  // first reading is counts as a standard uncertainty (a two-point distribution's). Shallower counts
-  // nothing: picking the deepest bin biases deep, so only an excess is the selection's.
+  // depth read at the deepest bin clear of gaps is the other hypothesis. Of two equally likely readings
+  // the depth is their midpoint and half their difference a standard uncertainty (a two-point
+  // distribution's), whichever holds; publishing the deeper one with that uncertainty put the truth at
+  // twice it whenever the edge read deep (scene matrix: 4 frames of snow and mud ruts published OK 1.00-
+  // 1.13 mm deep, all within 1 mm at the midpoint; on a snow rut whose every frame's deepest bin lay at
+  // a gap's edge, the clear readings were within 0.3 mm of the truth, the edge's 0.6-3.3 mm deep).
+  // Shallower counts nothing: picking the deepest bin biases deep, so only an excess is the selection's.
   const int clear = deepest_bin_clear_of_gaps(ws, o, k, p.half);
   const double u_select = clear < 0 ? 0.0 : 0.5 * std::max(0.0, out.depth_mm - depth_at(clear));
+  out.depth_mm -= u_select;
   const double norm = std::sqrt(1.0 + line.m * line.m);
   out.width_mm = (o.right_x - o.left_x) * norm;
   out.center_x_mm = 0.5 * (o.left_x + o.right_x);

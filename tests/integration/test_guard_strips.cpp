@@ -336,19 +336,19 @@ TEST(GuardStrips, AMeanOffTheLastFramesOrScatteredBeyondItsUncertaintiesIsRefuse
       8);
 }
 
-// A steep rut in snow under auto exposure (the scene matrix's clean-auto-snow-42, 75 mm deep): on frames
-// 0, 2, 3 and 4 one guard strip gives no usable depth (none, a condition, or u over three times the
-// limit), and the strip's UNCERTAIN depth is read with the other guard alone (chi-square of one degree of
-// freedom; on 2 and 4 with the last frames too). Every depth published OK is within 1 mm of the truth
-// (measure_both); at least one frame is read on two strips. (clean-auto-snow-10, the scene here before,
-// lost its premise when calibration drift stopped being flagged on blocks over the rut: the guard it
-// lacked had been flagged CalibrationDrift, and all three strips now read it.)
+// A wide rut in snow under auto exposure in dim light (the scene matrix's clean-auto-dim-snow-14): on some
+// frames one guard strip gives no usable depth (none, a condition, or u over three times the limit), and
+// the strip's UNCERTAIN depth is read with the other guard alone (chi-square of one degree of freedom).
+// Every depth published OK is within 1 mm of the truth (measure_both); at least one frame is read on two
+// strips. (clean-auto-snow-10, then clean-auto-snow-42, the scenes here before, lost the premise: the first
+// when calibration drift stopped being flagged on blocks over the rut, the second when a deepest point at
+// a gap's edge came to be read at the midpoint of its two readings, which its guards then all read.)
 TEST(GuardStrips, ANoisyDepthIsReadWithTheOneGuardThatFoundIt) {
   const std::array<int, 4> read = read_together(
-      "--texture snow --depth 74.6 --width 161 --bottom-width 62 --pile-left 16.5 --pile-right 18.3 --offset 11 "
-      "--baseline 115 --height 279 --hfov 90 --roll 3.7 --pitch 8.4 --noise 2.33 --speed 735 "
-      "--right-response 1.024 --seed 2042 --auto-exposure --ae-target 0.58 --light 1.10",
-      6);
+      "--texture snow --depth 37.3 --width 282 --bottom-width 109 --pile-left 6.6 --pile-right 2.7 --offset -11 "
+      "--baseline 64 --height 460 --hfov 75 --roll 3.6 --pitch -0.6 --noise 1.51 --speed 418 "
+      "--right-response 1.034 --seed 2014 --auto-exposure --ae-target 0.40 --light 0.210",
+      8);
   EXPECT_GE(read[2], 1) << "no frame read on two strips: the scene no longer tests it";
 }
 

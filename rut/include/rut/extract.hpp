@@ -121,9 +121,9 @@ void reduce_to_cross_section(const cv::Mat& xyz, const RutConfig& params, CrossS
 //     extra depth (taken as uniformly distributed, / sqrt(3)) counts where it would exceed the measured
 //     depth;
 //   - the selection at a gap's edge: a deepest point within half a fit window of a gap is read
-//     again at the deepest bin clear of gaps by as much, and half the excess of the first reading
-//     over the second counts (two hypotheses; bins beside what the matcher lost read the surface
-//     off, and the deepest of them is picked);
+//     again at the deepest bin clear of gaps by as much; where the first reading is deeper, the depth
+//     is the two readings' midpoint and half their difference counts (two hypotheses; bins beside
+//     what the matcher lost read the surface off, and the deepest of them is picked);
 //   - the fit of the deepest region: a parabola whose vertex lies above every sample it was fitted to
 //     (fragments across gaps) gives the highest sample as the depth, and half the overshoot counts;
 // (the last three, the rut's shape's share, also make up depth_systematic_mm)
