@@ -572,8 +572,12 @@ RutMeasurement extract_rut(const CrossSection& section, const RutConfig& params,
     const double deep = std::max(min_depth, 6.0 * p.sigma);
     int deep_bins = 0;
     for (int i = 0; i < n; ++i) deep_bins += -ws.h_raw[i] > deep;  // false for NaN
-    out.status = 2 * deep_bins >= p.half ? RutStatus::Uncertain : RutStatus::NoRut;
-    if (out.status == RutStatus::Uncertain) out.conditions |= kConditionUncertain;
+    if (2 * deep_bins >= p.half) {
+      out.status = RutStatus::Uncertain;
+      out.conditions |= kConditionUncertain;
+    } else {
+      out.status = RutStatus::NoRut;
+    }
     return out;
   }
   const Opening o = find_opening(ws.h_fit, p.grid, k, p);

@@ -34,6 +34,8 @@ constexpr double kMinDominantNcc = 0.15;
 
 int round_up16(int n) { return std::max(16, (n + 15) / 16 * 16); }
 
+int last_disparity(const DisparityBand& b) { return b.min_disparity + b.num_disparities - 1; }
+
 DisparityBand band_between(int lo, int hi) {  // inclusive disparities, lo >= 0
   return DisparityBand{lo, round_up16(hi - lo + 1)};
 }
@@ -56,7 +58,7 @@ int dominant_disparity(const cv::Mat& left, const cv::Mat& right, DisparityBand 
   cv::Sobel(left, grad_left, CV_32F, 1, 0, 3);
   cv::Sobel(right, grad_right, CV_32F, 1, 0, 3);
   const int width = left.cols;
-  const int hi = std::min(band.min_disparity + band.num_disparities - 1, width - width / 4);
+  const int hi = std::min(last_disparity(band), width - width / 4);
   int best = -1;
   double best_ncc = 0.0, best_floor = 1.0;
   for (int d = std::max(0, band.min_disparity); d <= hi; ++d) {
@@ -95,7 +97,7 @@ BandEstimator::Plan BandEstimator::plan(const StereoGeometry& g, WorkingRange ra
   Plan p;
   p.full = band_for_range(g, range);
   p.fallback = p.full;
-  const int full_hi = p.full.min_disparity + p.full.num_disparities - 1;
+  const int full_hi = last_disparity(p.full);
   while (p.full.num_disparities / p.scale > kMaxCoarseSpan) p.scale *= 2;  // along x only: rows are few already
   const int coarse_width = strip.width / p.scale;
   const int coarse_lo = p.full.min_disparity / p.scale;
@@ -103,6 +105,7 @@ BandEstimator::Plan BandEstimator::plan(const StereoGeometry& g, WorkingRange ra
   const int coarse_hi = std::min((full_hi + p.scale - 1) / p.scale, coarse_width - coarse_width / 4);
   p.coarse = coarse_hi - coarse_lo >= 1 && strip.height >= 3;
   if (p.coarse) p.coarse_band = band_between(coarse_lo, coarse_hi);
+  p.narrow = p.coarse && matchable_share(p.coarse_band, coarse_width) < kMinMatchableShare;
   // Rows halved too: the band is a percentile over the whole strip, which every second row gives as well.
   p.coarse_size = cv::Size(coarse_width, strip.height >= 10 ? strip.height / 2 : strip.height);
   return p;
@@ -121,7 +124,7 @@ DisparityBand BandEstimator::estimate(const cv::Mat& left_strip, const cv::Mat& 
     engine_ = make_cpu_engine(EngineKind::Sgbm3Way, params);
     engine_block_ = block;
   }
-  if (matchable_share(p.coarse_band, p.coarse_size.width) < kMinMatchableShare) narrow_to_dominant(p);
+  if (p.narrow) narrow_to_dominant(p);
   engine_->compute(left_, right_, p.coarse_band, coarse_);
   return band_from_coarse(p);
 }
@@ -129,12 +132,12 @@ DisparityBand BandEstimator::estimate(const cv::Mat& left_strip, const cv::Mat& 
 void BandEstimator::narrow_to_dominant(Plan& p) {
   const int d = dominant_disparity(left_, right_, p.coarse_band, grad_left_, grad_right_);
   if (d < 0) return;
-  const int coarse_hi = p.coarse_band.min_disparity + p.coarse_band.num_disparities - 1;
+  const int coarse_hi = last_disparity(p.coarse_band);
   const int spread = std::max(4, static_cast<int>(std::ceil(kDominantSpread * d)));
   const int lo = std::max(p.coarse_band.min_disparity, d - spread);
   const int hi = std::min(coarse_hi, d + spread);
   p.coarse_band = band_between(lo, hi);
-  const int full_hi = p.full.min_disparity + p.full.num_disparities - 1;
+  const int full_hi = last_disparity(p.full);
   p.fallback =
       band_between(std::max(p.full.min_disparity, lo * p.scale), std::min(full_hi, hi * p.scale + p.scale - 1));
 }
@@ -145,7 +148,7 @@ std::optional<DisparityBand> BandEstimator::estimate_on_device(DisparityEngine& 
                                                                cv::Mat& right_strip) {
   const Plan p = plan(g, range, cv::Size(g.rectified_size().width, g.roi().rows));
   // A band to narrow first is narrowed on the CPU (estimate(), from strips the caller rectifies).
-  if (!p.coarse || matchable_share(p.coarse_band, p.coarse_size.width) < kMinMatchableShare ||
+  if (!p.coarse || p.narrow ||
       !engine.coarse_match(left_raw, right_raw, g, p.scale, p.coarse_band, left_strip, right_strip, left_, coarse_))
     return std::nullopt;
   return band_from_coarse(p);
@@ -153,7 +156,7 @@ std::optional<DisparityBand> BandEstimator::estimate_on_device(DisparityEngine& 
 
 DisparityBand BandEstimator::band_from_coarse(const Plan& p) {
   const int scale = p.scale;
-  const int full_hi = p.full.min_disparity + p.full.num_disparities - 1;
+  const int full_hi = last_disparity(p.full);
   cv::Sobel(left_, texture_, CV_32F, 1, 0, 3);
   texture_ = cv::abs(texture_);
   cv::blur(texture_, texture_, cv::Size(5, 5));
@@ -200,7 +203,7 @@ void BandTracker::update(DisparityBand band, bool estimated, const cv::Mat& disp
     return;
   }
   const double lo = percentile(values_, kLowPercentile), hi = percentile(values_, kHighPercentile);
-  const double band_hi = band_.min_disparity + band_.num_disparities - 1;
+  const double band_hi = last_disparity(band_);
   const bool inside = lo >= band_.min_disparity + kEdgePx && hi <= band_hi - kEdgePx;
   frames_ = inside ? frames_ + 1 : 0;
 }

@@ -987,7 +987,7 @@ void carry_across_gaps(const cv::Mat& src, int row_begin, int row_end, cv::Mat& 
   for (int r = std::max(row_begin, 0); r < std::min(row_end, src.rows); ++r) {
     const float* in = src.ptr<float>(r);
     float* out = dst.ptr<float>(r);
-    int last = -1;
+    int first = -1, last = -1;
     for (int c = 0; c < src.cols; ++c) {
       if (std::isnan(in[c])) continue;
       out[c] = in[c];
@@ -995,12 +995,11 @@ void carry_across_gaps(const cv::Mat& src, int row_begin, int row_end, cv::Mat& 
         const float step = (in[c] - in[last]) / static_cast<float>(c - last);
         for (int k = last + 1; k < c; ++k) out[k] = in[last] + step * static_cast<float>(k - last);
       }
+      if (first < 0) first = c;
       last = c;
     }
-    if (to_ends && last >= 0) {
-      int c0 = 0;
-      while (std::isnan(in[c0])) ++c0;
-      for (int k = 0; k < c0; ++k) out[k] = in[c0];
+    if (to_ends && first >= 0) {
+      for (int k = 0; k < first; ++k) out[k] = in[first];
       for (int k = last + 1; k < src.cols; ++k) out[k] = in[last];
     }
   }

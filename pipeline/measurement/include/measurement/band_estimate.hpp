@@ -51,6 +51,7 @@ class BandEstimator {
     DisparityBand fallback;  // the answer when the coarse pass finds too little: full, or the narrowed band
     int scale = 1;           // columns averaged per coarse pixel
     bool coarse = false;     // false: the full band is the answer
+    bool narrow = false;     // coarse_band leaves under half the coarse strip matchable: narrow_to_dominant
     DisparityBand coarse_band;
     cv::Size coarse_size;
   };
